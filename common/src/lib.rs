@@ -1,0 +1,23 @@
+//! Types shared by the farm's coordinator and workers: geometry with
+//! pbrt-v3's floating-point error bounds, RGB spectra, the serializable
+//! scene description that the coordinator's parser produces and the workers
+//! build from, and the film tiling both sides agree on.
+#![warn(missing_docs)]
+
+/// Points, vectors, rays, bounds and transforms.
+pub mod geometry;
+/// Film geometry, tile layout and film tiles.
+pub mod film;
+/// Typed identifiers.
+pub mod ids;
+/// pbrt-v3's PCG32 random number generator.
+pub mod rng;
+/// The scene description: entities, parameters and file locations.
+pub mod scene;
+/// CIE matching functions and conversions of sampled spectra to RGB.
+pub mod cie;
+/// RGB spectra.
+pub mod spectrum;
+
+pub use geometry::{Bounds2i, Bounds3f, Point2i, Ray, Transform, Vec2, Vec3};
+pub use spectrum::Spectrum;
