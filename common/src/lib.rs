@@ -4,18 +4,18 @@
 //! build from, and the film tiling both sides agree on.
 #![warn(missing_docs)]
 
-/// Points, vectors, rays, bounds and transforms.
-pub mod geometry;
+/// CIE matching functions and conversions of sampled spectra to RGB.
+pub mod cie;
 /// Film geometry, tile layout and film tiles.
 pub mod film;
+/// Points, vectors, rays, bounds and transforms.
+pub mod geometry;
 /// Typed identifiers.
 pub mod ids;
 /// pbrt-v3's PCG32 random number generator.
 pub mod rng;
 /// The scene description: entities, parameters and file locations.
 pub mod scene;
-/// CIE matching functions and conversions of sampled spectra to RGB.
-pub mod cie;
 /// RGB spectra.
 pub mod spectrum;
 

@@ -79,9 +79,25 @@ impl FilmGeometry {
         let warnings = fp.unused_warnings();
 
         let filt = Params::new(&desc.filter.params);
-        let default_r = default_filter_radius(if desc.filter.name.is_empty() { "box" } else { &desc.filter.name });
-        let filter_radius = Vec2::new(filt.float("xwidth", default_r), filt.float("ywidth", default_r));
-        (FilmGeometry::new(Point2i::new(xres, yres), cropped, filter_radius, scale, max_sample_luminance, filename, diagonal), warnings)
+        let default_r = default_filter_radius(if desc.filter.name.is_empty() {
+            "box"
+        } else {
+            &desc.filter.name
+        });
+        let filter_radius =
+            Vec2::new(filt.float("xwidth", default_r), filt.float("ywidth", default_r));
+        (
+            FilmGeometry::new(
+                Point2i::new(xres, yres),
+                cropped,
+                filter_radius,
+                scale,
+                max_sample_luminance,
+                filename,
+                diagonal,
+            ),
+            warnings,
+        )
     }
 
     /// Geometry from explicit values.
@@ -163,7 +179,15 @@ mod tests {
 
     fn film(w: i32, h: i32, r: f32) -> FilmGeometry {
         let b = Bounds2i::new(Point2i::new(0, 0), Point2i::new(w, h));
-        FilmGeometry::new(Point2i::new(w, h), b, Vec2::splat(r), 1.0, f32::INFINITY, "x.exr".into(), 35.0)
+        FilmGeometry::new(
+            Point2i::new(w, h),
+            b,
+            Vec2::splat(r),
+            1.0,
+            f32::INFINITY,
+            "x.exr".into(),
+            35.0,
+        )
     }
 
     #[test]

@@ -66,7 +66,7 @@ impl Bounds2i {
         ((p.y - self.min.y) * self.width() + (p.x - self.min.x)) as usize
     }
     /// The pixels in row-major order.
-    pub fn iter(&self) -> impl Iterator<Item = Point2i> + '_ {
+    pub fn iter(self) -> impl Iterator<Item = Point2i> {
         let (x0, x1) = (self.min.x, self.max.x);
         (self.min.y..self.max.y).flat_map(move |y| (x0..x1).map(move |x| Point2i::new(x, y)))
     }
@@ -229,7 +229,10 @@ mod tests {
     fn tile_bounds_iterate_row_major() {
         let b = Bounds2i::new(Point2i::new(2, 3), Point2i::new(4, 5));
         let v: Vec<_> = b.iter().collect();
-        assert_eq!(v, vec![Point2i::new(2, 3), Point2i::new(3, 3), Point2i::new(2, 4), Point2i::new(3, 4)]);
+        assert_eq!(
+            v,
+            vec![Point2i::new(2, 3), Point2i::new(3, 3), Point2i::new(2, 4), Point2i::new(3, 4)]
+        );
         assert_eq!(b.offset(Point2i::new(3, 4)), 3);
     }
 }

@@ -81,7 +81,14 @@ pub fn face_forward(n: Vec3, v: Vec3) -> Vec3 {
 
 /// The unit vector with the given spherical angles in the frame (x, y, z).
 #[inline]
-pub fn spherical_direction(sin_theta: f32, cos_theta: f32, phi: f32, x: Vec3, y: Vec3, z: Vec3) -> Vec3 {
+pub fn spherical_direction(
+    sin_theta: f32,
+    cos_theta: f32,
+    phi: f32,
+    x: Vec3,
+    y: Vec3,
+    z: Vec3,
+) -> Vec3 {
     sin_theta * phi.cos() * x + sin_theta * phi.sin() * y + cos_theta * z
 }
 

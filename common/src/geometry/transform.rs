@@ -158,13 +158,11 @@ fn abs_mat(m: &Mat4) -> Mat4 {
     Mat4::from_cols(m.x_axis.abs(), m.y_axis.abs(), m.z_axis.abs(), m.w_axis.abs())
 }
 
-
 impl From<Mat4> for Transform {
     fn from(m: Mat4) -> Self {
         Transform::new(m)
     }
 }
-
 
 #[cfg(test)]
 mod tests {

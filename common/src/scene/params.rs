@@ -93,8 +93,7 @@ impl ParamSet {
     /// Adds a parameter, replacing an earlier one of the same name and type
     /// (pbrt-v3 keeps the last).
     pub fn add(&mut self, p: Param) {
-        self.params
-            .retain(|q| !(q.name == p.name && q.value.type_name() == p.value.type_name()));
+        self.params.retain(|q| !(q.name == p.name && q.value.type_name() == p.value.type_name()));
         self.params.push(p);
     }
 
@@ -223,7 +222,11 @@ mod tests {
     use super::*;
 
     fn param(name: &str, value: ParamValue) -> Param {
-        Param { name: name.into(), value, loc: FileLoc { file: "a.pbrt".into(), line: 3, column: 5 } }
+        Param {
+            name: name.into(),
+            value,
+            loc: FileLoc { file: "a.pbrt".into(), line: 3, column: 5 },
+        }
     }
 
     #[test]
