@@ -169,7 +169,8 @@ pub struct Distribution2D {
 impl Distribution2D {
     /// From `nu × nv` values, row-major in v.
     pub fn new(f: &[f32], nu: usize, nv: usize) -> Self {
-        let conditional: Vec<_> = (0..nv).map(|v| Distribution1D::new(&f[v * nu..(v + 1) * nu])).collect();
+        let conditional: Vec<_> =
+            (0..nv).map(|v| Distribution1D::new(&f[v * nu..(v + 1) * nu])).collect();
         let marginal_f: Vec<f32> = conditional.iter().map(|c| c.func_int).collect();
         Distribution2D { conditional, marginal: Distribution1D::new(&marginal_f) }
     }

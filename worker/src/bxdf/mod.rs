@@ -1,0 +1,204 @@
+//! Scattering functions (pbrt-v3 `core/reflection.h`): the `BxDF` lobes in a
+//! local shading frame, Fresnel terms, microfacet distributions, and the
+//! `Bsdf` that holds up to eight scaled lobes without allocating.
+
+mod bsdf;
+mod fresnel;
+mod fresnel_blend;
+mod lambert;
+mod microfacet;
+mod microfacet_bxdf;
+mod oren_nayar;
+pub mod reflection;
+mod specular;
+
+pub use bsdf::{Bsdf, BsdfSample, MAX_BXDFS};
+pub use fresnel::{fr_conductor, fr_dielectric, Fresnel};
+pub use fresnel_blend::FresnelBlend;
+pub use lambert::{LambertianReflection, LambertianTransmission};
+pub use microfacet::{erf, erf_inv, roughness_to_alpha, DistributionKind, MicrofacetDistribution};
+pub use microfacet_bxdf::{MicrofacetReflection, MicrofacetTransmission};
+pub use oren_nayar::OrenNayar;
+pub use specular::{FresnelSpecular, SpecularReflection, SpecularTransmission};
+
+use farm_common::geometry::{Vec2, Vec3};
+use farm_common::Spectrum;
+use std::ops::{BitAnd, BitOr};
+
+/// Whether a path carries radiance (from the camera) or importance (from lights).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum TransportMode {
+    /// Camera paths.
+    #[default]
+    Radiance,
+    /// Light paths.
+    Importance,
+}
+
+/// Lobe classification flags (pbrt-v3 `BxDFType`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub struct BxDFType(pub u8);
+
+impl BxDFType {
+    /// No flags.
+    pub const NONE: BxDFType = BxDFType(0);
+    /// Scatters into the hemisphere of `wo`.
+    pub const REFLECTION: BxDFType = BxDFType(1);
+    /// Scatters through the surface.
+    pub const TRANSMISSION: BxDFType = BxDFType(2);
+    /// Diffuse.
+    pub const DIFFUSE: BxDFType = BxDFType(4);
+    /// Glossy.
+    pub const GLOSSY: BxDFType = BxDFType(8);
+    /// A delta distribution.
+    pub const SPECULAR: BxDFType = BxDFType(16);
+    /// Every lobe.
+    pub const ALL: BxDFType = BxDFType(31);
+
+    /// Whether every flag of `self` is in `flags` (pbrt-v3 `MatchesFlags`).
+    #[inline]
+    pub fn matches(self, flags: BxDFType) -> bool {
+        self.0 & flags.0 == self.0
+    }
+    /// Whether any flag of `o` is set.
+    #[inline]
+    pub fn contains_any(self, o: BxDFType) -> bool {
+        self.0 & o.0 != 0
+    }
+}
+
+impl BitOr for BxDFType {
+    type Output = BxDFType;
+    #[inline]
+    fn bitor(self, o: BxDFType) -> BxDFType {
+        BxDFType(self.0 | o.0)
+    }
+}
+
+impl BitAnd for BxDFType {
+    type Output = BxDFType;
+    #[inline]
+    fn bitand(self, o: BxDFType) -> BxDFType {
+        BxDFType(self.0 & o.0)
+    }
+}
+
+/// A direction sampled from one lobe, in the local frame.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct BxDFSample {
+    /// The lobe's value for (wo, wi).
+    pub f: Spectrum,
+    /// The sampled incident direction.
+    pub wi: Vec3,
+    /// Its density (solid angle, or the discrete probability of a delta lobe).
+    pub pdf: f32,
+    /// The kind of scattering chosen.
+    pub sampled_type: BxDFType,
+}
+
+/// One scattering lobe in the local shading frame (+z is the shading normal).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum BxDF {
+    /// Lambertian reflection.
+    LambertianReflection(LambertianReflection),
+    /// Lambertian transmission.
+    LambertianTransmission(LambertianTransmission),
+    /// Oren–Nayar rough diffuse reflection.
+    OrenNayar(OrenNayar),
+    /// Perfect specular reflection.
+    SpecularReflection(SpecularReflection),
+    /// Perfect specular transmission.
+    SpecularTransmission(SpecularTransmission),
+    /// Specular reflection and transmission chosen by Fresnel.
+    FresnelSpecular(FresnelSpecular),
+    /// Torrance–Sparrow reflection.
+    MicrofacetReflection(MicrofacetReflection),
+    /// Walter et al. microfacet transmission.
+    MicrofacetTransmission(MicrofacetTransmission),
+    /// Ashikhmin–Shirley diffuse/glossy blend.
+    FresnelBlend(FresnelBlend),
+}
+
+impl Default for BxDF {
+    fn default() -> Self {
+        BxDF::LambertianReflection(LambertianReflection { r: Spectrum::ZERO })
+    }
+}
+
+macro_rules! dispatch {
+    ($self:ident, $b:ident => $e:expr) => {
+        match $self {
+            BxDF::LambertianReflection($b) => $e,
+            BxDF::LambertianTransmission($b) => $e,
+            BxDF::OrenNayar($b) => $e,
+            BxDF::SpecularReflection($b) => $e,
+            BxDF::SpecularTransmission($b) => $e,
+            BxDF::FresnelSpecular($b) => $e,
+            BxDF::MicrofacetReflection($b) => $e,
+            BxDF::MicrofacetTransmission($b) => $e,
+            BxDF::FresnelBlend($b) => $e,
+        }
+    };
+}
+
+impl BxDF {
+    /// The lobe's flags.
+    #[inline]
+    pub fn bxdf_type(&self) -> BxDFType {
+        use BxDFType as T;
+        match self {
+            BxDF::LambertianReflection(_) | BxDF::OrenNayar(_) => T::REFLECTION | T::DIFFUSE,
+            BxDF::LambertianTransmission(_) => T::TRANSMISSION | T::DIFFUSE,
+            BxDF::SpecularReflection(_) => T::REFLECTION | T::SPECULAR,
+            BxDF::SpecularTransmission(_) => T::TRANSMISSION | T::SPECULAR,
+            BxDF::FresnelSpecular(_) => T::REFLECTION | T::TRANSMISSION | T::SPECULAR,
+            BxDF::MicrofacetReflection(_) | BxDF::FresnelBlend(_) => T::REFLECTION | T::GLOSSY,
+            BxDF::MicrofacetTransmission(_) => T::TRANSMISSION | T::GLOSSY,
+        }
+    }
+
+    /// Whether the lobe's flags are all within `flags`.
+    #[inline]
+    pub fn matches_flags(&self, flags: BxDFType) -> bool {
+        self.bxdf_type().matches(flags)
+    }
+
+    /// The lobe's value for the pair of directions (zero for delta lobes).
+    #[inline]
+    pub fn f(&self, wo: Vec3, wi: Vec3) -> Spectrum {
+        dispatch!(self, b => b.f(wo, wi))
+    }
+
+    /// Samples an incident direction for `wo`; `None` when the density is zero.
+    #[inline]
+    pub fn sample_f(&self, wo: Vec3, u: Vec2) -> Option<BxDFSample> {
+        let ty = self.bxdf_type();
+        dispatch!(self, b => b.sample_f(wo, u, ty))
+    }
+
+    /// Density of [`Self::sample_f`] choosing `wi`.
+    #[inline]
+    pub fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
+        dispatch!(self, b => b.pdf(wo, wi))
+    }
+}
+
+/// pbrt-v3's default `BxDF::Sample_f`: cosine-weighted on `wo`'s side.
+#[inline]
+pub(crate) fn cosine_sample(wo: Vec3, u: Vec2) -> Vec3 {
+    let mut wi = crate::sampling::cosine_sample_hemisphere(u);
+    if wo.z < 0.0 {
+        wi.z = -wi.z;
+    }
+    wi
+}
+
+/// pbrt-v3's default `BxDF::Pdf`.
+#[inline]
+pub(crate) fn cosine_pdf(wo: Vec3, wi: Vec3) -> f32 {
+    if reflection::same_hemisphere(wo, wi) {
+        reflection::abs_cos_theta(wi) * std::f32::consts::FRAC_1_PI
+    } else {
+        0.0
+    }
+}

@@ -1,0 +1,216 @@
+//! Building the scene's camera from its `Camera` directive (pbrt-v3
+//! `CreatePerspectiveCamera`, `CreateOrthographicCamera`, `MakeCamera`).
+
+use super::{Camera, OrthographicCamera, PerspectiveCamera};
+use farm_common::film::FilmGeometry;
+use farm_common::geometry::{AnimatedTransform, Bounds2f, Vec2};
+use farm_common::scene::{Entity, Params, Warning};
+
+/// Parameters both projective cameras read.
+struct Common {
+    shutter_open: f32,
+    shutter_close: f32,
+    lens_radius: f32,
+    focal_distance: f32,
+    screen: Bounds2f,
+}
+
+fn common(p: &Params, entity: &Entity, film: &FilmGeometry, warnings: &mut Vec<Warning>) -> Common {
+    let mut shutter_open = p.float("shutteropen", 0.0);
+    let mut shutter_close = p.float("shutterclose", 1.0);
+    if shutter_close < shutter_open {
+        warnings.push(Warning::at(
+            &entity.loc,
+            format!("Shutter close time [{shutter_close:.6}] < shutter open [{shutter_open:.6}].  Swapping them."),
+        ));
+        std::mem::swap(&mut shutter_open, &mut shutter_close);
+    }
+    let lens_radius = p.float("lensradius", 0.0);
+    let focal_distance = p.float("focaldistance", 1e6);
+    let res = film.full_resolution;
+    let frame = p.float("frameaspectratio", res.x as f32 / res.y as f32);
+    let mut screen = if frame > 1.0 {
+        Bounds2f { min: Vec2::new(-frame, -1.0), max: Vec2::new(frame, 1.0) }
+    } else {
+        Bounds2f { min: Vec2::new(-1.0, -1.0 / frame), max: Vec2::new(1.0, 1.0 / frame) }
+    };
+    if let Some(sw) = p.floats("screenwindow") {
+        if let [x0, x1, y0, y1] = *sw {
+            screen = Bounds2f { min: Vec2::new(x0, y0), max: Vec2::new(x1, y1) };
+        } else {
+            warnings.push(Warning::at(&entity.loc, "\"screenwindow\" should have four values"));
+        }
+    }
+    Common { shutter_open, shutter_close, lens_radius, focal_distance, screen }
+}
+
+/// The camera of a `Camera` directive placed by `render_from_camera`, for
+/// a film of `film.full_resolution` pixels. Unknown or unsupported camera
+/// types fall back to a perspective camera with a warning; unused
+/// parameters are reported.
+pub fn create(
+    entity: &Entity,
+    render_from_camera: AnimatedTransform,
+    film: &FilmGeometry,
+    warnings: &mut Vec<Warning>,
+) -> Camera {
+    let p = Params::new(&entity.params);
+    if render_from_camera.has_scale() {
+        warnings.push(Warning::at(
+            &entity.loc,
+            "Scaling detected in world-to-camera transformation!\n\
+             The system has numerous assumptions, implicit and explicit,\n\
+             that this transform will have no scale factors in it.\n\
+             Proceed at your own risk; your image may have errors or\n\
+             the system may crash as a result of this.",
+        ));
+    }
+    let res = film.full_resolution;
+    let camera = match entity.name.as_str() {
+        "orthographic" => {
+            let c = common(&p, entity, film, warnings);
+            Camera::Orthographic(OrthographicCamera::new(
+                render_from_camera,
+                &c.screen,
+                c.shutter_open,
+                c.shutter_close,
+                c.lens_radius,
+                c.focal_distance,
+                res,
+            ))
+        }
+        name => {
+            match name {
+                "perspective" => {}
+                "realistic" | "environment" => warnings.push(Warning::at(
+                    &entity.loc,
+                    format!("Camera \"{name}\" is not supported; using \"perspective\"."),
+                )),
+                _ => warnings.push(Warning::at(&entity.loc, format!("Camera \"{name}\" unknown."))),
+            }
+            let c = common(&p, entity, film, warnings);
+            let mut fov = p.float("fov", 90.0);
+            let half_fov = p.float("halffov", -1.0);
+            if half_fov > 0.0 {
+                // Structure Synth exports half of the full field of view.
+                fov = 2.0 * half_fov;
+            }
+            Camera::Perspective(PerspectiveCamera::new(
+                render_from_camera,
+                &c.screen,
+                c.shutter_open,
+                c.shutter_close,
+                c.lens_radius,
+                c.focal_distance,
+                fov,
+                res,
+            ))
+        }
+    };
+    warnings.extend(p.unused_warnings());
+    camera
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::sampling::CameraSample;
+    use farm_common::geometry::{Bounds2i, Mat4, Point2i, Transform, Vec3};
+    use farm_common::scene::{FileLoc, Param, ParamValue};
+
+    fn film(w: i32, h: i32) -> FilmGeometry {
+        let b = Bounds2i::new(Point2i::new(0, 0), Point2i::new(w, h));
+        FilmGeometry::new(
+            Point2i::new(w, h),
+            b,
+            Vec2::splat(0.5),
+            1.0,
+            f32::INFINITY,
+            "x.exr".into(),
+            35.0,
+        )
+    }
+
+    fn entity(name: &str, floats: &[(&str, &[f32])]) -> Entity {
+        let mut e = Entity::named(name);
+        for (n, v) in floats {
+            let loc = FileLoc { file: "s.pbrt".into(), line: 1, column: 1 };
+            e.params.add(Param { name: n.to_string(), value: ParamValue::Float(v.to_vec()), loc });
+        }
+        e
+    }
+
+    fn fixed() -> AnimatedTransform {
+        AnimatedTransform::fixed(Transform::default())
+    }
+
+    #[test]
+    fn defaults_follow_pbrt() {
+        let mut w = Vec::new();
+        let c = create(&Entity::named("perspective"), fixed(), &film(20, 10), &mut w);
+        assert!(w.is_empty(), "{w:?}");
+        assert_eq!(c.shutter(), (0.0, 1.0));
+        let p = c.projective();
+        assert_eq!((p.lens_radius, p.focal_distance), (0.0, 1e6));
+        // Wide film: the 90° field of view is vertical, the window 2:1.
+        let s = CameraSample { p_film: Vec2::new(0.0, 5.0), ..Default::default() };
+        let (_, r) = c.generate_ray(&s);
+        assert!((r.d.x / r.d.z + 2.0).abs() < 1e-5, "{:?}", r.d);
+    }
+
+    #[test]
+    fn unknown_cameras_fall_back_with_warnings() {
+        let mut w = Vec::new();
+        let e = entity("fisheye", &[("fov", &[30.0]), ("bogus", &[1.0])]);
+        let c = create(
+            &Entity { loc: FileLoc { file: "s.pbrt".into(), line: 1, column: 1 }, ..e },
+            fixed(),
+            &film(8, 8),
+            &mut w,
+        );
+        assert!(matches!(c, Camera::Perspective(_)));
+        let text: Vec<String> = w.iter().map(|w| w.to_string()).collect();
+        assert_eq!(
+            text,
+            [
+                "s.pbrt:1:1: warning: Camera \"fisheye\" unknown.",
+                "s.pbrt:1:1: warning: Parameter \"bogus\" not used"
+            ]
+        );
+    }
+
+    #[test]
+    fn parameters_are_read_and_checked() {
+        let mut w = Vec::new();
+        let e = entity(
+            "perspective",
+            &[
+                ("shutteropen", &[2.0]),
+                ("shutterclose", &[1.0]),
+                ("halffov", &[22.5]),
+                ("screenwindow", &[1.0, 2.0]),
+            ],
+        );
+        let c = create(&e, fixed(), &film(8, 8), &mut w);
+        assert_eq!(c.shutter(), (1.0, 2.0));
+        assert_eq!(w.len(), 2, "{w:?}");
+        assert!(w[0]
+            .message
+            .starts_with("Shutter close time [1.000000] < shutter open [2.000000]"));
+        assert_eq!(w[1].message, "\"screenwindow\" should have four values");
+        // halffov 22.5 is a 45° field of view.
+        let (_, r) =
+            c.generate_ray(&CameraSample { p_film: Vec2::new(0.0, 4.0), ..Default::default() });
+        assert!((r.d.x / r.d.z + 22.5f32.to_radians().tan()).abs() < 1e-5);
+
+        let mut w = Vec::new();
+        let e = entity(
+            "orthographic",
+            &[("screenwindow", &[-1.0, 1.0, -3.0, 3.0]), ("lensradius", &[0.5])],
+        );
+        let scaled = AnimatedTransform::fixed(Transform::new(Mat4::from_scale(Vec3::splat(2.0))));
+        let c = create(&e, scaled, &film(8, 8), &mut w);
+        assert!(matches!(c, Camera::Orthographic(_)) && c.projective().lens_radius == 0.5);
+        assert!(w.len() == 1 && w[0].message.starts_with("Scaling detected"), "{w:?}");
+    }
+}

@@ -1,0 +1,372 @@
+//! pbrt-v3's `MIPMap`: non-power-of-two images are resampled up with
+//! Lanczos weights, then box-filtered into a pyramid; lookups are trilinear
+//! or EWA (elliptically weighted average with a Gaussian weight table).
+
+use farm_common::geometry::Vec2;
+use farm_common::Spectrum;
+use std::ops::{Add, Mul};
+
+/// What a MIP map stores: floats or RGB.
+pub trait Texel: Copy + Default + Add<Output = Self> + Mul<f32, Output = Self> {
+    /// The value clamped below at zero.
+    fn clamp_non_negative(self) -> Self;
+}
+
+impl Texel for f32 {
+    #[inline]
+    fn clamp_non_negative(self) -> Self {
+        self.max(0.0)
+    }
+}
+
+impl Texel for Spectrum {
+    #[inline]
+    fn clamp_non_negative(self) -> Self {
+        self.map(|v| v.max(0.0))
+    }
+}
+
+/// How lookups outside [0, 1]² behave (pbrt-v3 `ImageWrap`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub enum WrapMode {
+    /// Tile the image.
+    #[default]
+    Repeat,
+    /// Black outside.
+    Black,
+    /// Extend the edge texels.
+    Clamp,
+}
+
+impl WrapMode {
+    /// pbrt-v3's parsing of `"string wrap"`: anything unknown is repeat.
+    pub fn from_name(s: &str) -> WrapMode {
+        match s {
+            "black" => WrapMode::Black,
+            "clamp" => WrapMode::Clamp,
+            _ => WrapMode::Repeat,
+        }
+    }
+}
+
+const WEIGHT_LUT_SIZE: usize = 128;
+
+/// One pyramid level.
+#[derive(Clone, Debug)]
+struct Level<T> {
+    w: usize,
+    h: usize,
+    texels: Vec<T>,
+}
+
+/// An image pyramid with pbrt-v3's filtered lookups.
+#[derive(Clone, Debug)]
+pub struct MipMap<T: Texel> {
+    trilinear: bool,
+    max_aniso: f32,
+    wrap: WrapMode,
+    pyramid: Vec<Level<T>>,
+    weight_lut: [f32; WEIGHT_LUT_SIZE],
+}
+
+/// pbrt-v3's windowed sinc with τ = 2.
+fn lanczos(x: f32) -> f32 {
+    let tau = 2.0;
+    let x = x.abs();
+    if x < 1e-5 {
+        return 1.0;
+    }
+    if x > 1.0 {
+        return 0.0;
+    }
+    let x = x * std::f32::consts::PI;
+    ((x * tau).sin() / (x * tau)) * (x.sin() / x)
+}
+
+/// For each texel of the new resolution, the first source texel and four weights.
+fn resample_weights(old_res: usize, new_res: usize) -> Vec<(i64, [f32; 4])> {
+    let filter_width = 2.0f32;
+    (0..new_res)
+        .map(|i| {
+            let center = (i as f32 + 0.5) * old_res as f32 / new_res as f32;
+            let first = ((center - filter_width) + 0.5).floor() as i64;
+            let mut w = [0.0f32; 4];
+            for (j, wj) in w.iter_mut().enumerate() {
+                let pos = first as f32 + j as f32 + 0.5;
+                *wj = lanczos((pos - center) / filter_width);
+            }
+            let inv = 1.0 / (w[0] + w[1] + w[2] + w[3]);
+            for wj in &mut w {
+                *wj *= inv;
+            }
+            (first, w)
+        })
+        .collect()
+}
+
+fn wrap_index(i: i64, n: usize, wrap: WrapMode) -> Option<usize> {
+    let n = n as i64;
+    let i = match wrap {
+        WrapMode::Repeat => i.rem_euclid(n),
+        WrapMode::Clamp => i.clamp(0, n - 1),
+        WrapMode::Black => i,
+    };
+    (0..n).contains(&i).then_some(i as usize)
+}
+
+impl<T: Texel> MipMap<T> {
+    /// Builds the pyramid for a `width × height` image (row-major, row 0 at t = 0).
+    /// An empty image becomes a single black texel.
+    pub fn new(
+        width: usize,
+        height: usize,
+        texels: Vec<T>,
+        trilinear: bool,
+        max_aniso: f32,
+        wrap: WrapMode,
+    ) -> MipMap<T> {
+        let (mut w, mut h, mut img) = (width, height, texels);
+        if w == 0 || h == 0 || img.len() < w * h {
+            (w, h, img) = (1, 1, vec![T::default()]);
+        }
+        if !w.is_power_of_two() || !h.is_power_of_two() {
+            let (w2, h2) = (w.next_power_of_two(), h.next_power_of_two());
+            // Zoom in s.
+            let sw = resample_weights(w, w2);
+            let mut res = vec![T::default(); w2 * h2];
+            for t in 0..h {
+                for (s, (first, wt)) in sw.iter().enumerate() {
+                    let mut acc = T::default();
+                    for (j, wj) in wt.iter().enumerate() {
+                        if let Some(os) = wrap_index(first + j as i64, w, wrap) {
+                            acc = acc + img[t * w + os] * *wj;
+                        }
+                    }
+                    res[t * w2 + s] = acc;
+                }
+            }
+            // Zoom in t, clamping negative lobes away.
+            let tw = resample_weights(h, h2);
+            let mut column = vec![T::default(); h2];
+            for s in 0..w2 {
+                for (t, (first, wt)) in tw.iter().enumerate() {
+                    let mut acc = T::default();
+                    for (j, wj) in wt.iter().enumerate() {
+                        if let Some(ot) = wrap_index(first + j as i64, h, wrap) {
+                            acc = acc + res[ot * w2 + s] * *wj;
+                        }
+                    }
+                    column[t] = acc;
+                }
+                for (t, c) in column.iter().enumerate() {
+                    res[t * w2 + s] = c.clamp_non_negative();
+                }
+            }
+            (w, h, img) = (w2, h2, res);
+        }
+        let n_levels = 1 + w.max(h).ilog2() as usize;
+        let mut mip = MipMap {
+            trilinear,
+            max_aniso,
+            wrap,
+            pyramid: Vec::with_capacity(n_levels),
+            weight_lut: [0.0; WEIGHT_LUT_SIZE],
+        };
+        mip.pyramid.push(Level { w, h, texels: img });
+        for i in 1..n_levels {
+            let (pw, ph) = (mip.pyramid[i - 1].w, mip.pyramid[i - 1].h);
+            let (sw, sh) = ((pw / 2).max(1), (ph / 2).max(1));
+            let mut texels = Vec::with_capacity(sw * sh);
+            for t in 0..sh as i64 {
+                for s in 0..sw as i64 {
+                    let l = i - 1;
+                    let v = (mip.texel(l, 2 * s, 2 * t)
+                        + mip.texel(l, 2 * s + 1, 2 * t)
+                        + mip.texel(l, 2 * s, 2 * t + 1)
+                        + mip.texel(l, 2 * s + 1, 2 * t + 1))
+                        * 0.25;
+                    texels.push(v);
+                }
+            }
+            mip.pyramid.push(Level { w: sw, h: sh, texels });
+        }
+        for (i, w) in mip.weight_lut.iter_mut().enumerate() {
+            let alpha = 2.0f32;
+            let r2 = i as f32 / (WEIGHT_LUT_SIZE - 1) as f32;
+            *w = (-alpha * r2).exp() - (-alpha).exp();
+        }
+        mip
+    }
+
+    /// Number of pyramid levels.
+    pub fn levels(&self) -> usize {
+        self.pyramid.len()
+    }
+
+    /// Resolution of level `i` (level 0 is the power-of-two base).
+    pub fn level_size(&self, i: usize) -> (usize, usize) {
+        self.pyramid.get(i).map_or((0, 0), |l| (l.w, l.h))
+    }
+
+    /// The texel at integer coordinates, after the wrap mode.
+    pub fn texel(&self, level: usize, s: i64, t: i64) -> T {
+        let l = &self.pyramid[level];
+        match (wrap_index(s, l.w, self.wrap), wrap_index(t, l.h, self.wrap)) {
+            (Some(s), Some(t)) => l.texels[t * l.w + s],
+            _ => T::default(),
+        }
+    }
+
+    /// Bilinear interpolation on one level.
+    fn triangle(&self, level: usize, st: Vec2) -> T {
+        let level = level.min(self.levels() - 1);
+        let l = &self.pyramid[level];
+        let s = st.x * l.w as f32 - 0.5;
+        let t = st.y * l.h as f32 - 0.5;
+        let (s0, t0) = (s.floor(), t.floor());
+        let (ds, dt) = (s - s0, t - t0);
+        let (s0, t0) = (s0 as i64, t0 as i64);
+        self.texel(level, s0, t0) * ((1.0 - ds) * (1.0 - dt))
+            + self.texel(level, s0, t0 + 1) * ((1.0 - ds) * dt)
+            + self.texel(level, s0 + 1, t0) * (ds * (1.0 - dt))
+            + self.texel(level, s0 + 1, t0 + 1) * (ds * dt)
+    }
+
+    /// Trilinear lookup for a square filter of `width` in [0, 1] texture space.
+    pub fn lookup(&self, st: Vec2, width: f32) -> T {
+        let n = self.levels();
+        let level = (n - 1) as f32 + width.max(1e-8).log2();
+        if level < 0.0 {
+            self.triangle(0, st)
+        } else if level >= (n - 1) as f32 {
+            self.texel(n - 1, 0, 0)
+        } else {
+            let il = level.floor();
+            let delta = level - il;
+            let il = il as usize;
+            self.triangle(il, st) * (1.0 - delta) + self.triangle(il + 1, st) * delta
+        }
+    }
+
+    /// Filtered lookup for the footprint spanned by the differentials
+    /// `dst0`, `dst1` (pbrt-v3 `Lookup(st, dstdx, dstdy)`): trilinear when
+    /// the map was built with `trilinear`, EWA otherwise.
+    pub fn lookup_ewa(&self, st: Vec2, dst0: Vec2, dst1: Vec2) -> T {
+        let (mut dst0, mut dst1) = (dst0, dst1);
+        if self.trilinear {
+            let width = dst0.x.abs().max(dst0.y.abs()).max(dst1.x.abs().max(dst1.y.abs()));
+            return self.lookup(st, 2.0 * width);
+        }
+        if dst0.length_squared() < dst1.length_squared() {
+            std::mem::swap(&mut dst0, &mut dst1);
+        }
+        let major = dst0.length();
+        let mut minor = dst1.length();
+        if minor * self.max_aniso < major && minor > 0.0 {
+            let scale = major / (minor * self.max_aniso);
+            dst1 *= scale;
+            minor *= scale;
+        }
+        if minor == 0.0 {
+            return self.triangle(0, st);
+        }
+        let lod = ((self.levels() as f32 - 1.0) + minor.log2()).max(0.0);
+        let il = lod.floor();
+        let d = lod - il;
+        let il = il as usize;
+        self.ewa(il, st, dst0, dst1) * (1.0 - d) + self.ewa(il + 1, st, dst0, dst1) * d
+    }
+
+    fn ewa(&self, level: usize, st: Vec2, dst0: Vec2, dst1: Vec2) -> T {
+        if level >= self.levels() {
+            return self.texel(self.levels() - 1, 0, 0);
+        }
+        let l = &self.pyramid[level];
+        let (fw, fh) = (l.w as f32, l.h as f32);
+        let st = Vec2::new(st.x * fw - 0.5, st.y * fh - 0.5);
+        let dst0 = Vec2::new(dst0.x * fw, dst0.y * fh);
+        let dst1 = Vec2::new(dst1.x * fw, dst1.y * fh);
+        // Ellipse coefficients.
+        let mut a = dst0.y * dst0.y + dst1.y * dst1.y + 1.0;
+        let mut b = -2.0 * (dst0.x * dst0.y + dst1.x * dst1.y);
+        let mut c = dst0.x * dst0.x + dst1.x * dst1.x + 1.0;
+        let inv_f = 1.0 / (a * c - b * b * 0.25);
+        a *= inv_f;
+        b *= inv_f;
+        c *= inv_f;
+        // Bounding box of the ellipse.
+        let det = -b * b + 4.0 * a * c;
+        let inv_det = 1.0 / det;
+        let u_sqrt = (det * c).sqrt();
+        let v_sqrt = (a * det).sqrt();
+        let s0 = (st.x - 2.0 * inv_det * u_sqrt).ceil() as i64;
+        let s1 = (st.x + 2.0 * inv_det * u_sqrt).floor() as i64;
+        let t0 = (st.y - 2.0 * inv_det * v_sqrt).ceil() as i64;
+        let t1 = (st.y + 2.0 * inv_det * v_sqrt).floor() as i64;
+        let mut sum = T::default();
+        let mut sum_wts = 0.0f32;
+        for it in t0..=t1 {
+            let tt = it as f32 - st.y;
+            for is in s0..=s1 {
+                let ss = is as f32 - st.x;
+                let r2 = a * ss * ss + b * ss * tt + c * tt * tt;
+                if r2 < 1.0 {
+                    let index = ((r2 * WEIGHT_LUT_SIZE as f32) as usize).min(WEIGHT_LUT_SIZE - 1);
+                    let weight = self.weight_lut[index];
+                    sum = sum + self.texel(level, is, it) * weight;
+                    sum_wts += weight;
+                }
+            }
+        }
+        sum * (1.0 / sum_wts)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use farm_common::rng::Rng;
+
+    #[test]
+    fn constant_image_gives_constant_lookups() {
+        let c = Spectrum::new(0.25, 0.5, 0.75);
+        let mut rng = Rng::new(1);
+        for (w, h) in [(5usize, 3usize), (8, 8), (1, 7), (16, 4)] {
+            for wrap in [WrapMode::Repeat, WrapMode::Clamp] {
+                for tri in [false, true] {
+                    let m = MipMap::new(w, h, vec![c; w * h], tri, 8.0, wrap);
+                    assert!(m.level_size(0).0.is_power_of_two());
+                    for _ in 0..200 {
+                        let st =
+                            Vec2::new(rng.uniform_f32() * 3.0 - 1.0, rng.uniform_f32() * 3.0 - 1.0);
+                        let d0 = Vec2::new(rng.uniform_f32() - 0.5, rng.uniform_f32() - 0.5) * 0.3;
+                        let d1 = Vec2::new(rng.uniform_f32() - 0.5, rng.uniform_f32() - 0.5) * 0.01;
+                        for v in [
+                            m.lookup_ewa(st, d0, d1),
+                            m.lookup(st, rng.uniform_f32()),
+                            m.lookup_ewa(st, Vec2::ZERO, Vec2::ZERO),
+                        ] {
+                            for k in 0..3 {
+                                assert!((v[k] - c[k]).abs() < 1e-4, "{w}x{h} {wrap:?} {v:?}");
+                            }
+                        }
+                    }
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn pyramid_averages_and_wraps() {
+        let m = MipMap::new(2, 2, vec![0.0f32, 1.0, 2.0, 3.0], false, 8.0, WrapMode::Black);
+        assert_eq!(m.levels(), 2);
+        assert_eq!(m.level_size(1), (1, 1));
+        assert_eq!(m.texel(1, 0, 0), 1.5);
+        assert_eq!(m.texel(0, -1, 0), 0.0);
+        // Bilinear at a texel centre returns the texel; a huge width returns the top level.
+        assert_eq!(m.lookup(Vec2::new(0.75, 0.25), 0.0), 1.0);
+        assert_eq!(m.lookup(Vec2::new(0.3, 0.3), 10.0), 1.5);
+        let r = MipMap::new(2, 1, vec![1.0f32, 3.0], false, 8.0, WrapMode::Repeat);
+        assert_eq!(r.texel(0, 2, 5), 1.0);
+    }
+}

@@ -1,0 +1,43 @@
+//! `AreaLightSource "diffuse"` (alias `"area"`): a shape emitting constant
+//! radiance from its front side, or both (pbrt-v3 `lights/diffuse.cpp`).
+
+use super::LightSample;
+use crate::interaction::Interaction;
+use crate::shapes::Shape;
+use farm_common::geometry::{Vec2, Vec3};
+use farm_common::Spectrum;
+
+/// An emitting shape.
+#[derive(Clone, Debug)]
+pub struct DiffuseAreaLight {
+    /// Emitted radiance (`L` × `scale`).
+    pub l_emit: Spectrum,
+    /// The emitting shape (render space).
+    pub shape: Shape,
+    /// `twosided`: emit from the back too.
+    pub two_sided: bool,
+}
+
+impl DiffuseAreaLight {
+    /// Radiance leaving point `it` of the shape in direction `w`.
+    #[inline]
+    pub fn l(&self, n: Vec3, w: Vec3) -> Spectrum {
+        if self.two_sided || n.dot(w) > 0.0 {
+            self.l_emit
+        } else {
+            Spectrum::ZERO
+        }
+    }
+
+    /// Samples a point on the shape as seen from `r`.
+    #[inline]
+    pub fn sample_li(&self, r: &Interaction, u: Vec2) -> Option<LightSample> {
+        let (p_shape, pdf) = self.shape.sample_from(r, u)?;
+        let d = p_shape.p - r.p;
+        if pdf == 0.0 || d.length_squared() == 0.0 {
+            return None;
+        }
+        let wi = d.normalize();
+        Some(LightSample { li: self.l(p_shape.n, -wi), wi, pdf, p_light: p_shape })
+    }
+}

@@ -1,0 +1,297 @@
+//! Building materials from `Material`/`MakeNamedMaterial` directives with
+//! pbrt-v3's parameter names and defaults (`Create*Material`).
+
+use super::{
+    Glass, Material, Matte, Metal, Mirror, MixMaterial, Plastic, Substrate, Translucent, Uber,
+};
+use crate::textures::{Resolver, TextureSet};
+use farm_common::cie::{copper_eta, copper_k};
+use farm_common::scene::{MaterialEntity, Params, Warning};
+use farm_common::Spectrum;
+
+fn make(
+    e: &MaterialEntity,
+    index: usize,
+    p: &Params,
+    r: &Resolver,
+    w: &mut Vec<Warning>,
+) -> Material {
+    let s = |name: &str, v: f32, w: &mut Vec<Warning>| r.spectrum(p, name, Spectrum::splat(v), w);
+    let f = |name: &str, v: f32, w: &mut Vec<Warning>| r.float(p, name, v, w);
+    let bump = r.float_or_none(p, "bumpmap", w);
+    let remap = p.bool("remaproughness", true);
+    // `eta` takes precedence over its older name `index`.
+    let eta = |w: &mut Vec<Warning>| {
+        r.float_or_none(p, "eta", w).unwrap_or_else(|| r.float(p, "index", 1.5, w))
+    };
+    let loc = &e.entity.loc;
+    match e.entity.name.as_str() {
+        "plastic" => Material::Plastic(Plastic {
+            kd: s("Kd", 0.25, w),
+            ks: s("Ks", 0.25, w),
+            roughness: f("roughness", 0.1, w),
+            remap_roughness: remap,
+            bump,
+        }),
+        "mirror" => Material::Mirror(Mirror { kr: s("Kr", 0.9, w), bump }),
+        "glass" => Material::Glass(Glass {
+            kr: s("Kr", 1.0, w),
+            kt: s("Kt", 1.0, w),
+            eta: eta(w),
+            u_roughness: f("uroughness", 0.0, w),
+            v_roughness: f("vroughness", 0.0, w),
+            remap_roughness: remap,
+            bump,
+        }),
+        "metal" => Material::Metal(Metal {
+            eta: r.spectrum(p, "eta", copper_eta(), w),
+            k: r.spectrum(p, "k", copper_k(), w),
+            roughness: f("roughness", 0.01, w),
+            u_roughness: r.float_or_none(p, "uroughness", w),
+            v_roughness: r.float_or_none(p, "vroughness", w),
+            remap_roughness: remap,
+            bump,
+        }),
+        "uber" => Material::Uber(Uber {
+            kd: s("Kd", 0.25, w),
+            ks: s("Ks", 0.25, w),
+            kr: s("Kr", 0.0, w),
+            kt: s("Kt", 0.0, w),
+            roughness: f("roughness", 0.1, w),
+            u_roughness: r.float_or_none(p, "uroughness", w),
+            v_roughness: r.float_or_none(p, "vroughness", w),
+            eta: eta(w),
+            opacity: s("opacity", 1.0, w),
+            remap_roughness: remap,
+            bump,
+        }),
+        "substrate" => Material::Substrate(Substrate {
+            kd: s("Kd", 0.5, w),
+            ks: s("Ks", 0.5, w),
+            u_roughness: f("uroughness", 0.1, w),
+            v_roughness: f("vroughness", 0.1, w),
+            remap_roughness: remap,
+            bump,
+        }),
+        "translucent" => Material::Translucent(Translucent {
+            kd: s("Kd", 0.25, w),
+            ks: s("Ks", 0.25, w),
+            reflect: s("reflect", 0.5, w),
+            transmit: s("transmit", 0.5, w),
+            roughness: f("roughness", 0.1, w),
+            remap_roughness: remap,
+            bump,
+        }),
+        "mix" => {
+            let pick = |name: &str, w: &mut Vec<Warning>| match p.material(name) {
+                Some(m) if (m as usize) < index => m,
+                _ => {
+                    w.push(Warning::at(loc, format!("Named material \"{name}\" undefined for mix material; using the default matte")));
+                    0
+                }
+            };
+            let m1 = pick("namedmaterial1", w);
+            let m2 = pick("namedmaterial2", w);
+            Material::Mix(MixMaterial { m1, m2, amount: s("amount", 0.5, w) })
+        }
+        other => {
+            if other != "matte" {
+                w.push(Warning::at(loc, format!("Material \"{other}\" unknown. Using \"matte\".")));
+            }
+            Material::Matte(Matte { kd: s("Kd", 0.5, w), sigma: f("sigma", 0.0, w), bump })
+        }
+    }
+}
+
+/// Builds every material, in order, reading textures from `textures`.
+/// Unknown types become matte with pbrt-v3's warning; unused parameters
+/// are reported.
+pub fn build(
+    materials: &[MaterialEntity],
+    textures: &TextureSet,
+    warnings: &mut Vec<Warning>,
+) -> Vec<Material> {
+    let r = Resolver { set: textures, limit: textures.floats.len().max(textures.spectra.len()) };
+    materials
+        .iter()
+        .enumerate()
+        .map(|(i, e)| {
+            let p = Params::new(&e.entity.params);
+            // pbrt-v3 reads "type" from MakeNamedMaterial's parameters.
+            p.touch("type");
+            let m = make(e, i, &p, &r, warnings);
+            warnings.extend(p.unused_warnings());
+            m
+        })
+        .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::bxdf::{BxDFType, TransportMode};
+    use crate::interaction::SurfaceInteraction;
+    use farm_common::geometry::{DMat4, Transform, Vec2, Vec3};
+    use farm_common::scene::{
+        Entity, FileLoc, Param, ParamSet, ParamValue, TextureEntity, TextureKind, TextureRef,
+    };
+    use std::collections::BTreeMap;
+
+    fn entity(name: &str, params: Vec<(&str, ParamValue)>) -> Entity {
+        let mut set = ParamSet::default();
+        for (n, v) in params {
+            set.add(Param { name: n.into(), value: v, loc: FileLoc::default() });
+        }
+        Entity { name: name.into(), params: set, loc: FileLoc::default() }
+    }
+
+    fn hit() -> SurfaceInteraction {
+        let mut si = SurfaceInteraction::new(
+            Vec3::ZERO,
+            Vec3::ZERO,
+            Vec2::new(0.1, 0.1),
+            Vec3::Z,
+            Vec3::X,
+            Vec3::Y,
+            Vec3::ZERO,
+            Vec3::ZERO,
+            0.0,
+            false,
+        );
+        si.dudx = 0.001;
+        si.dvdy = 0.001;
+        si
+    }
+
+    #[test]
+    fn mirror_glass_and_textured_matte() {
+        let textures = vec![
+            TextureEntity {
+                name: "checks".into(),
+                kind: TextureKind::Spectrum,
+                entity: entity(
+                    "checkerboard",
+                    vec![
+                        ("uscale", ParamValue::Float(vec![4.0])),
+                        ("tex1", ParamValue::Spectrum(vec![Spectrum::new(0.8, 0.1, 0.1)])),
+                    ],
+                ),
+                world_from_texture: DMat4::IDENTITY,
+            },
+            TextureEntity {
+                name: "img".into(),
+                kind: TextureKind::Float,
+                entity: entity(
+                    "imagemap",
+                    vec![("filename", ParamValue::String(vec!["missing.png".into()]))],
+                ),
+                world_from_texture: DMat4::IDENTITY,
+            },
+        ];
+        let mut w = Vec::new();
+        let set =
+            crate::textures::build(&textures, &Transform::default(), &BTreeMap::new(), &mut w);
+        assert!(w.iter().any(|x| x.message.contains("missing.png")), "{w:?}");
+        assert!(crate::textures::uses_differentials(&set));
+        let tref = |id| {
+            ParamValue::Texture(TextureRef {
+                name: "checks".into(),
+                float_id: None,
+                spectrum_id: Some(id),
+            })
+        };
+        let mats = vec![
+            MaterialEntity { name: None, entity: entity("matte", vec![("Kd", tref(0))]) },
+            MaterialEntity {
+                name: None,
+                entity: entity(
+                    "mirror",
+                    vec![("Kr", ParamValue::Spectrum(vec![Spectrum::new(0.5, 0.6, 0.7)]))],
+                ),
+            },
+            MaterialEntity {
+                name: None,
+                entity: entity(
+                    "glass",
+                    vec![
+                        ("index", ParamValue::Float(vec![1.33])),
+                        ("typo", ParamValue::Float(vec![1.0])),
+                    ],
+                ),
+            },
+            MaterialEntity {
+                name: None,
+                entity: entity(
+                    "mix",
+                    vec![
+                        ("namedmaterial1", ParamValue::Material(0)),
+                        ("namedmaterial2", ParamValue::Material(1)),
+                        ("amount", ParamValue::Spectrum(vec![Spectrum::splat(0.25)])),
+                    ],
+                ),
+            },
+            MaterialEntity { name: None, entity: entity("foo", vec![]) },
+        ];
+        let built = build(&mats, &set, &mut w);
+        assert!(w.iter().any(|x| x.message.contains("\"typo\" not used")), "{w:?}");
+        assert!(w.iter().any(|x| x.message.contains("\"foo\" unknown")), "{w:?}");
+        let wo = Vec3::new(0.0, 0.6, 0.8);
+        let mode = TransportMode::Radiance;
+        // Matte takes the checkerboard's first colour at (0.4, 0.1).
+        let b = built[0].compute_bsdf(&mut hit(), &built, &set, mode, false);
+        let f = b.f(wo, Vec3::new(0.6, 0.0, 0.8), BxDFType::ALL);
+        assert!((f.r - 0.8 / std::f32::consts::PI).abs() < 1e-5, "{f:?}");
+        // The mirror returns Kr / cos θ with probability one.
+        let b = built[1].compute_bsdf(&mut hit(), &built, &set, mode, false);
+        let s = b.sample_f(wo, Vec2::new(0.5, 0.5), BxDFType::ALL).unwrap();
+        assert!((s.f * 0.8 - Spectrum::new(0.5, 0.6, 0.7)).max_component().abs() < 1e-5);
+        assert!((s.wi - Vec3::new(0.0, -0.6, 0.8)).length() < 1e-5 && s.pdf == 1.0);
+        // Whitted glass: separate specular reflection and transmission lobes.
+        let b = built[2].compute_bsdf(&mut hit(), &built, &set, mode, false);
+        assert_eq!(b.num_components(BxDFType::ALL), 2);
+        assert_eq!(b.eta, 1.33);
+        let b = built[2].compute_bsdf(&mut hit(), &built, &set, mode, true);
+        assert_eq!(b.num_components(BxDFType::ALL), 1);
+        // Mix: matte scaled by amount, mirror by 1 - amount.
+        let b = built[3].compute_bsdf(&mut hit(), &built, &set, mode, false);
+        assert_eq!(b.num_components(BxDFType::ALL), 2);
+        let f = b.f(wo, Vec3::new(0.6, 0.0, 0.8), BxDFType::ALL);
+        assert!((f.r - 0.25 * 0.8 / std::f32::consts::PI).abs() < 1e-5, "{f:?}");
+        assert!(matches!(built[4], Material::Matte(_)));
+    }
+
+    #[test]
+    fn bump_map_tilts_the_shading_normal() {
+        let textures = vec![TextureEntity {
+            name: "ramp".into(),
+            kind: TextureKind::Float,
+            entity: entity(
+                "bilerp",
+                vec![
+                    ("v00", ParamValue::Float(vec![0.0])),
+                    ("v01", ParamValue::Float(vec![0.0])),
+                    ("v10", ParamValue::Float(vec![1.0])),
+                    ("v11", ParamValue::Float(vec![1.0])),
+                ],
+            ),
+            world_from_texture: DMat4::IDENTITY,
+        }];
+        let mut w = Vec::new();
+        let set =
+            crate::textures::build(&textures, &Transform::default(), &BTreeMap::new(), &mut w);
+        let tref = ParamValue::Texture(TextureRef {
+            name: "ramp".into(),
+            float_id: Some(0),
+            spectrum_id: None,
+        });
+        let mats =
+            vec![MaterialEntity { name: None, entity: entity("matte", vec![("bumpmap", tref)]) }];
+        let built = build(&mats, &set, &mut w);
+        let mut si = hit();
+        built[0].compute_bsdf(&mut si, &built, &set, TransportMode::Radiance, false);
+        // Height grows with u at slope 1: the normal leans to -x by 45°.
+        let n = si.shading.n;
+        assert!((n - Vec3::new(-1.0, 0.0, 1.0).normalize()).length() < 1e-3, "{n}");
+        assert_eq!(si.it.n, Vec3::Z);
+    }
+}

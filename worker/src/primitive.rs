@@ -1,0 +1,141 @@
+//! Primitives (a shape with its material and area light) and aggregates of
+//! them behind a BVH; object instances place a shared aggregate with a
+//! transform (pbrt-v3 `GeometricPrimitive`, `TransformedPrimitive`, `BVHAccel`).
+
+use crate::accel::Bvh;
+use crate::interaction::SurfaceInteraction;
+use crate::shapes::Shape;
+use farm_common::geometry::{AnimatedTransform, Bounds3f, Ray, Transform};
+use std::sync::Arc;
+
+/// A shape with what shades it.
+#[derive(Clone, Debug)]
+pub struct Primitive {
+    /// The geometry, in the aggregate's space.
+    pub shape: Shape,
+    /// Index into the scene's materials; `None` for `Material "none"`
+    /// (surfaces that only bound media, skipped by the Whitted integrator).
+    pub material: Option<u32>,
+    /// Index into the scene's lights if the shape emits.
+    pub area_light: Option<u32>,
+}
+
+/// A closest hit and the primitive it landed on.
+#[derive(Clone, Copy, Debug)]
+pub struct Hit<'a> {
+    /// The surface point, in render space.
+    pub si: SurfaceInteraction,
+    /// The primitive hit.
+    pub prim: &'a Primitive,
+}
+
+/// Primitives ordered for a BVH over them.
+#[derive(Debug)]
+pub struct Aggregate {
+    prims: Vec<Primitive>,
+    bvh: Bvh,
+}
+
+impl Aggregate {
+    /// Builds the BVH and stores the primitives in its order.
+    pub fn new(prims: Vec<Primitive>) -> Self {
+        let bounds: Vec<Bounds3f> = prims.iter().map(|p| p.shape.bounds()).collect();
+        let (bvh, order) = Bvh::build(&bounds, 4);
+        let mut slots: Vec<Option<Primitive>> = prims.into_iter().map(Some).collect();
+        let prims = order.iter().filter_map(|&i| slots[i as usize].take()).collect();
+        Aggregate { prims, bvh }
+    }
+
+    /// Bounds of everything inside.
+    pub fn bounds(&self) -> Bounds3f {
+        self.bvh.bounds()
+    }
+
+    /// Number of primitives.
+    pub fn len(&self) -> usize {
+        self.prims.len()
+    }
+
+    /// Whether there are no primitives.
+    pub fn is_empty(&self) -> bool {
+        self.prims.is_empty()
+    }
+
+    /// The primitives, in BVH order.
+    pub fn primitives(&self) -> &[Primitive] {
+        &self.prims
+    }
+
+    /// The closest hit along `ray` before its `t_max`; returns its `t` too.
+    #[inline]
+    pub fn intersect(&self, ray: &Ray) -> Option<(f32, Hit<'_>)> {
+        let mut best: Option<(f32, usize, SurfaceInteraction)> = None;
+        self.bvh.intersect(ray, |i, r| {
+            let (t, si) = self.prims[i].shape.intersect(r)?;
+            best = Some((t, i, si));
+            Some(t)
+        });
+        best.map(|(t, i, mut si)| {
+            si.prim = i as u32;
+            (t, Hit { si, prim: &self.prims[i] })
+        })
+    }
+
+    /// Whether anything blocks `ray` before its `t_max`.
+    #[inline]
+    pub fn intersect_p(&self, ray: &Ray) -> bool {
+        self.bvh.intersect_any(ray, |i, r| self.prims[i].shape.intersect_p(r))
+    }
+}
+
+/// Where an instance sits: fixed, or moving over the shutter interval.
+#[derive(Clone, Debug)]
+pub enum Placement {
+    /// A fixed transform and its inverse.
+    Static(Transform),
+    /// Keyframed transforms interpolated at each ray's time.
+    Animated(AnimatedTransform),
+}
+
+/// A shared aggregate placed in the scene (pbrt-v3 `TransformedPrimitive`).
+#[derive(Debug)]
+pub struct Instance {
+    /// The shared geometry, in its own space.
+    pub geometry: Arc<Aggregate>,
+    /// Render-from-instance.
+    pub placement: Placement,
+}
+
+impl Instance {
+    /// Render-space bounds over the whole shutter interval.
+    pub fn bounds(&self) -> Bounds3f {
+        match &self.placement {
+            Placement::Static(t) => t.bounds(&self.geometry.bounds()),
+            Placement::Animated(a) => a.motion_bounds(&self.geometry.bounds()),
+        }
+    }
+
+    #[inline]
+    fn render_from_instance(&self, time: f32) -> Transform {
+        match &self.placement {
+            Placement::Static(t) => *t,
+            Placement::Animated(a) => a.interpolate(time),
+        }
+    }
+
+    /// The closest hit, moved back to render space.
+    #[inline]
+    pub fn intersect(&self, ray: &Ray) -> Option<(f32, Hit<'_>)> {
+        let xf = self.render_from_instance(ray.time);
+        let local = xf.inverse().ray(ray);
+        let (t, hit) = self.geometry.intersect(&local)?;
+        Some((t, Hit { si: hit.si.transform(&xf), prim: hit.prim }))
+    }
+
+    /// Whether anything in the instance blocks `ray`.
+    #[inline]
+    pub fn intersect_p(&self, ray: &Ray) -> bool {
+        let xf = self.render_from_instance(ray.time);
+        self.geometry.intersect_p(&xf.inverse().ray(ray))
+    }
+}

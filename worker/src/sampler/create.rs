@@ -1,0 +1,264 @@
+//! Building a [`Sampler`] from the scene's `Sampler` directive (pbrt-v3
+//! `MakeSampler` and the `Create*Sampler` functions), with pbrt-v3's
+//! parameter names, defaults and warnings.
+
+use super::lowdiscrepancy::{is_power_of_2, round_up_pow2};
+use super::{
+    Halton, HaltonSampler, MaxMinDistSampler, RandomSampler, Sampler, Sobol, SobolSampler,
+    StratifiedSampler, ZeroTwoSequenceSampler, C_MAX_MIN_DIST,
+};
+use farm_common::geometry::Bounds2i;
+use farm_common::scene::{Entity, Params, Warning};
+
+/// The sampler named by `entity` for images whose samples cover
+/// `sample_bounds` (the film's sample bounds). `spp_override` replaces the
+/// sample count (for stratified: the most nearly square `x`×`y` grid with
+/// that many cells). Unknown names warn as pbrt-v3 does and fall back to
+/// `"halton"`; unused parameters are reported.
+pub fn create(
+    entity: &Entity,
+    sample_bounds: Bounds2i,
+    spp_override: Option<u32>,
+    warnings: &mut Vec<Warning>,
+) -> Sampler {
+    let params = Params::new(&entity.params);
+    let warn = |w: &mut Vec<Warning>, msg: String| w.push(Warning::at(&entity.loc, msg));
+    let pixel_samples = |default: i32| -> i64 {
+        let n = params.int("pixelsamples", default);
+        spp_override.map_or(n as i64, |o| o as i64).max(1)
+    };
+    let dimensions = || params.int("dimensions", 4).max(0) as usize;
+    let sampler = match entity.name.as_str() {
+        "lowdiscrepancy" | "02sequence" => {
+            let n = pixel_samples(16);
+            let dims = dimensions();
+            if !is_power_of_2(n) {
+                let msg = format!(
+                    "Pixel samples being rounded up to power of 2 (from {n} to {}).",
+                    round_up_pow2(n)
+                );
+                warn(warnings, msg);
+            }
+            Sampler::ZeroTwoSequence(ZeroTwoSequenceSampler::new(round_up_pow2(n), dims))
+        }
+        "maxmindist" => {
+            let mut n = pixel_samples(4);
+            let dims = dimensions();
+            let max = 1i64 << (C_MAX_MIN_DIST.len() - 1);
+            if n > max {
+                let msg = format!(
+                    "No more than {max} samples per pixel are supported with MaxMinDistSampler. Rounding down."
+                );
+                warn(warnings, msg);
+                n = max;
+            }
+            if !is_power_of_2(n) {
+                n = round_up_pow2(n);
+                let msg = format!(
+                    "Non power-of-two sample count rounded up to {n} for MaxMinDistSampler."
+                );
+                warn(warnings, msg);
+            }
+            Sampler::MaxMinDist(MaxMinDistSampler::new(n, dims))
+        }
+        "sobol" => {
+            let n = pixel_samples(16);
+            if !is_power_of_2(n) {
+                let msg = format!(
+                    "Non power-of-two sample count rounded up to {} for SobolSampler.",
+                    round_up_pow2(n)
+                );
+                warn(warnings, msg);
+            }
+            Sampler::Sobol(SobolSampler::new(round_up_pow2(n), Sobol::new(sample_bounds)))
+        }
+        "random" => {
+            let n = pixel_samples(4);
+            // pbrt-v3 takes the clock for a negative seed; we stay deterministic.
+            let seed = params.int("seed", 0).max(0) as u64;
+            Sampler::Random(RandomSampler::new(n, seed))
+        }
+        "stratified" => {
+            let jitter = params.bool("jitter", true);
+            let mut xs = params.int("xsamples", 4).max(1) as usize;
+            let mut ys = params.int("ysamples", 4).max(1) as usize;
+            let dims = dimensions();
+            params.touch("seed");
+            if let Some(n) = spp_override {
+                let n = n.max(1) as usize;
+                xs = (n as f64).sqrt() as usize;
+                while xs > 1 && n / xs * xs != n {
+                    xs -= 1;
+                }
+                ys = n / xs;
+            }
+            Sampler::Stratified(StratifiedSampler::new(xs, ys, jitter, dims))
+        }
+        name => {
+            if name != "halton" {
+                warn(warnings, format!("Sampler \"{name}\" unknown."));
+            }
+            let n = pixel_samples(16);
+            let center = params.bool("samplepixelcenter", false);
+            Sampler::Halton(HaltonSampler::new(n, Halton::new(sample_bounds, center)))
+        }
+    };
+    warnings.extend(params.unused_warnings());
+    sampler
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use farm_common::geometry::Point2i;
+    use farm_common::rng::Rng;
+    use farm_common::scene::{FileLoc, Param, ParamValue};
+
+    fn entity(name: &str, ints: &[(&str, i32)]) -> Entity {
+        let mut e = Entity::named(name);
+        for &(n, v) in ints {
+            e.params.add(Param {
+                name: n.into(),
+                value: ParamValue::Int(vec![v]),
+                loc: FileLoc::default(),
+            });
+        }
+        e
+    }
+
+    fn bounds() -> Bounds2i {
+        Bounds2i::new(Point2i::new(-1, -2), Point2i::new(13, 9))
+    }
+
+    fn make(name: &str, ints: &[(&str, i32)]) -> Sampler {
+        let mut w = Vec::new();
+        let s = create(&entity(name, ints), bounds(), None, &mut w);
+        assert!(w.is_empty(), "{w:?}");
+        s
+    }
+
+    /// All values of the first `n` samples of pixel `p`.
+    fn values(s: &mut Sampler, p: Point2i, n: usize) -> Vec<f32> {
+        s.start_pixel(p);
+        let mut out = Vec::new();
+        for _ in 0..n {
+            let c = s.camera_sample(p);
+            out.extend([c.p_film.x, c.p_film.y, c.time, c.p_lens.x, c.p_lens.y]);
+            let v = s.get_2d();
+            out.extend([v.x, v.y, s.get_1d()]);
+            s.start_next_sample();
+        }
+        out
+    }
+
+    #[test]
+    fn film_samples_stay_inside_their_pixel() {
+        let samplers = [
+            make("halton", &[("pixelsamples", 8)]),
+            make("sobol", &[("pixelsamples", 8)]),
+            make("02sequence", &[("pixelsamples", 8)]),
+            make("stratified", &[("xsamples", 3), ("ysamples", 2)]),
+            make("maxmindist", &[("pixelsamples", 8)]),
+            make("random", &[]),
+        ];
+        for base in samplers {
+            let mut s = base.clone_with_seed(5);
+            for p in bounds().iter() {
+                s.start_pixel(p);
+                loop {
+                    let c = s.camera_sample(p);
+                    let (fx, fy) = (c.p_film.x - p.x as f32, c.p_film.y - p.y as f32);
+                    assert!((0.0..1.0).contains(&fx) && (0.0..1.0).contains(&fy), "{s:?} {p:?}");
+                    assert!((0.0..=1.0).contains(&c.time));
+                    if !s.start_next_sample() {
+                        break;
+                    }
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn same_seed_same_values_and_seeds_differ() {
+        for (name, ints) in [
+            ("02sequence", &[("pixelsamples", 4)][..]),
+            ("random", &[][..]),
+            ("stratified", &[("xsamples", 2), ("ysamples", 2)][..]),
+            ("maxmindist", &[][..]),
+        ] {
+            let base = make(name, ints);
+            let p = Point2i::new(4, 3);
+            let a = values(&mut base.clone_with_seed(7), p, 4);
+            let b = values(&mut base.clone_with_seed(7), p, 4);
+            assert_eq!(a, b, "{name}");
+            let c = values(&mut base.clone_with_seed(8), p, 4);
+            assert_ne!(a, c, "{name}");
+        }
+        for name in ["halton", "sobol"] {
+            let base = make(name, &[("pixelsamples", 4)]);
+            let p = Point2i::new(2, 2);
+            let mut s = base.clone_with_seed(1);
+            values(&mut s, Point2i::new(9, 1), 4);
+            assert_eq!(values(&mut s, p, 4), values(&mut base.clone_with_seed(2), p, 4));
+        }
+    }
+
+    #[test]
+    fn random_sampler_is_the_rng_stream() {
+        let mut s = make("random", &[("pixelsamples", 2)]).clone_with_seed(11);
+        let mut r = Rng::new(11);
+        s.start_pixel(Point2i::new(0, 0));
+        for _ in 0..10 {
+            assert_eq!(s.get_1d(), r.uniform_f32());
+            let v = s.get_2d();
+            assert_eq!((v.x, v.y), (r.uniform_f32(), r.uniform_f32()));
+        }
+    }
+
+    #[test]
+    fn names_defaults_and_warnings() {
+        let mut w = Vec::new();
+        let s = create(&entity("lowdiscrepancy", &[("pixelsamples", 10)]), bounds(), None, &mut w);
+        assert!(matches!(s, Sampler::ZeroTwoSequence(_)));
+        assert_eq!(s.samples_per_pixel(), 16);
+        assert_eq!(w[0].message, "Pixel samples being rounded up to power of 2 (from 10 to 16).");
+        w.clear();
+        let s =
+            create(&entity("bogus", &[("pixelsamples", 3), ("typo", 1)]), bounds(), None, &mut w);
+        assert!(matches!(s, Sampler::Halton(_)));
+        assert_eq!(s.samples_per_pixel(), 3);
+        assert_eq!(w.len(), 2);
+        assert_eq!(w[0].message, "Sampler \"bogus\" unknown.");
+        assert_eq!(w[1].message, "Parameter \"typo\" not used");
+        w.clear();
+        let s = create(&entity("stratified", &[("pixelsamples", 3)]), bounds(), Some(12), &mut w);
+        assert_eq!(s.samples_per_pixel(), 12);
+        assert_eq!(w.len(), 1, "pixelsamples is not a stratified parameter");
+        assert_eq!(make("random", &[]).samples_per_pixel(), 4);
+        assert_eq!(make("halton", &[]).samples_per_pixel(), 16);
+        assert_eq!(make("stratified", &[]).samples_per_pixel(), 16);
+    }
+
+    #[test]
+    fn global_sampler_arrays_skip_dimensions() {
+        let mut base = make("halton", &[("pixelsamples", 4)]);
+        base.request_2d_array(3);
+        let mut with = base.clone_with_seed(0);
+        let mut without = make("halton", &[("pixelsamples", 4)]);
+        for s in [&mut with, &mut without] {
+            s.start_pixel(Point2i::new(1, 1));
+            s.set_sample_number(2);
+        }
+        // Camera sample uses dims 0-4; the array takes 5-6; get_2d then reads 7-8.
+        let (a, b) =
+            (with.camera_sample(Point2i::new(1, 1)), without.camera_sample(Point2i::new(1, 1)));
+        assert_eq!((a.p_film, a.time, a.p_lens), (b.p_film, b.time, b.p_lens));
+        let arr = with.get_2d_array(3).map(|a| a.to_vec());
+        assert_eq!(arr.as_ref().map(|a| a.len()), Some(3));
+        let expected = {
+            let _ = without.get_2d();
+            without.get_2d()
+        };
+        assert_eq!(with.get_2d(), expected);
+    }
+}

@@ -1,0 +1,207 @@
+//! The Sobol' sampler (pbrt-v3 `samplers/sobol.cpp`):
+//!
+//! ```text
+//! Sampler "sobol" "integer pixelsamples" [16]
+//! ```
+//!
+//! A global sampler: the first two Sobol' dimensions, scaled to the
+//! power-of-two square covering the sample bounds, pick the pixel; the
+//! sample index of a pixel's n-th sample is found by inverting those two
+//! generator matrices (pbrt-v3 `SobolIntervalToIndex`).
+//!
+//! Only the first [`NUM_SOBOL_DIMENSIONS`] of pbrt-v3's 1024 generator
+//! matrices are stored (`sobolmatrices.rs`). Beyond them (pbrt-v3 would
+//! use its further matrices, and aborts past 1024) dimension `d` reuses
+//! stored dimension `2 + (d - 2) % (NUM_SOBOL_DIMENSIONS - 2)`, XOR-scrambled
+//! by a fixed hash of `d`: deterministic and still stratified per
+//! dimension, but not pbrt-v3's values.
+
+use super::pixel::{GlobalSampler, GlobalSequence};
+use super::sobolmatrices::{NUM_SOBOL_DIMENSIONS, SOBOL_MATRICES_32, SOBOL_MATRIX_SIZE};
+use farm_common::geometry::{Bounds2i, Point2i};
+use farm_common::rng::ONE_MINUS_EPSILON;
+
+/// The Sobol' sampler.
+pub type SobolSampler = GlobalSampler<Sobol>;
+
+/// Columns of the second Sobol' dimension at 52 bits (pbrt-v3 `SobolMatrices64`).
+fn sobol_1_columns_52() -> [u64; SOBOL_MATRIX_SIZE] {
+    let mut c = [0u64; SOBOL_MATRIX_SIZE];
+    c[0] = 1 << 51;
+    for i in 1..SOBOL_MATRIX_SIZE {
+        c[i] = c[i - 1] ^ (c[i - 1] >> 1);
+    }
+    c
+}
+
+/// Forward and inverse pixel matrices of one resolution.
+pub type VdcMatrices = ([u64; SOBOL_MATRIX_SIZE], [u64; SOBOL_MATRIX_SIZE]);
+
+/// pbrt-v3's `VdCSobolMatrices[m-1]` and `VdCSobolMatricesInv[m-1]`:
+/// how index bits `2m + c` move the pixel `(x << m) | y`, and which low
+/// `2m` index bits give pixel bit `c`.
+pub fn vdc_sobol_matrices(m: u32) -> VdcMatrices {
+    let m = m as usize;
+    let c1 = sobol_1_columns_52();
+    let mut fwd = [0u64; SOBOL_MATRIX_SIZE];
+    for c in 0..SOBOL_MATRIX_SIZE.saturating_sub(2 * m) {
+        fwd[c] = c1[2 * m + c] >> (52 - m);
+    }
+    // Pixel bits produced by each of the low 2m index bits, paired with the
+    // index bits combined; column-reduce until each pixel bit stands alone.
+    let mut cols: Vec<(u64, u64)> = (0..2 * m)
+        .map(|j| {
+            let x = if j < m { 1u64 << (m - 1 - j) } else { 0 };
+            ((x << m) | (c1[j] >> (52 - m)), 1u64 << j)
+        })
+        .collect();
+    let mut inv = [0u64; SOBOL_MATRIX_SIZE];
+    for bit in 0..2 * m {
+        if let Some(k) = (bit..2 * m).find(|&k| cols[k].0 >> bit & 1 != 0) {
+            cols.swap(bit, k);
+            let pivot = cols[bit];
+            for (j, col) in cols.iter_mut().enumerate() {
+                if j != bit && col.0 >> bit & 1 != 0 {
+                    col.0 ^= pivot.0;
+                    col.1 ^= pivot.1;
+                }
+            }
+        }
+    }
+    for (bit, col) in cols.iter().enumerate() {
+        inv[bit] = col.1;
+    }
+    (fwd, inv)
+}
+
+/// Dimension `dim` of Sobol' point `a` (pbrt-v3 `SobolSampleFloat`), with
+/// the documented fallback past the stored dimensions.
+#[inline]
+pub fn sobol_sample(mut a: i64, dim: usize) -> f32 {
+    let (dim, mut v) = if dim < NUM_SOBOL_DIMENSIONS {
+        (dim, 0u32)
+    } else {
+        let mut h = (dim as u64).wrapping_mul(0x9e37_79b9_7f4a_7c15);
+        h ^= h >> 29;
+        (2 + (dim - 2) % (NUM_SOBOL_DIMENSIONS - 2), (h >> 32) as u32)
+    };
+    let mut i = dim * SOBOL_MATRIX_SIZE;
+    while a != 0 && i < SOBOL_MATRICES_32.len() {
+        if a & 1 != 0 {
+            v ^= SOBOL_MATRICES_32[i];
+        }
+        a >>= 1;
+        i += 1;
+    }
+    v as f32 * f32::from_bits(0x2f80_0000)
+}
+
+/// The Sobol' sequence over the sample bounds.
+#[derive(Clone, Debug)]
+pub struct Sobol {
+    sample_bounds: Bounds2i,
+    resolution: i32,
+    log2_resolution: u32,
+    /// pbrt-v3's `VdCSobolMatrices` and `VdCSobolMatricesInv` for this resolution.
+    vdc: Box<VdcMatrices>,
+}
+
+impl Sobol {
+    /// The sequence for images whose samples cover `sample_bounds`.
+    pub fn new(sample_bounds: Bounds2i) -> Self {
+        let diag = sample_bounds.width().max(sample_bounds.height()).max(1);
+        let resolution = (diag as u32).next_power_of_two().min(1 << 26) as i32;
+        let log2_resolution = resolution.trailing_zeros();
+        let vdc = Box::new(vdc_sobol_matrices(log2_resolution));
+        Sobol { sample_bounds, resolution, log2_resolution, vdc }
+    }
+
+    /// pbrt-v3 `SobolIntervalToIndex`.
+    fn interval_to_index(&self, mut frame: u64, p: Point2i) -> u64 {
+        let m = self.log2_resolution;
+        if m == 0 {
+            return 0;
+        }
+        let mut index = frame << (2 * m);
+        let mut delta = 0u64;
+        let mut c = 0;
+        while frame != 0 && c < SOBOL_MATRIX_SIZE {
+            if frame & 1 != 0 {
+                delta ^= self.vdc.0[c];
+            }
+            frame >>= 1;
+            c += 1;
+        }
+        let mut b = (((p.x as u32 as u64) << m) | p.y as u32 as u64) ^ delta;
+        let mut c = 0;
+        while b != 0 && c < SOBOL_MATRIX_SIZE {
+            if b & 1 != 0 {
+                index ^= self.vdc.1[c];
+            }
+            b >>= 1;
+            c += 1;
+        }
+        index
+    }
+}
+
+impl GlobalSequence for Sobol {
+    fn index_for_sample(&mut self, pixel: Point2i, sample_num: i64) -> i64 {
+        let p =
+            Point2i::new(pixel.x - self.sample_bounds.min.x, pixel.y - self.sample_bounds.min.y);
+        self.interval_to_index(sample_num as u64, p) as i64
+    }
+
+    fn sample_dimension(&self, pixel: Point2i, index: i64, dim: usize) -> f32 {
+        let mut s = sobol_sample(index, dim);
+        if dim < 2 {
+            let (min, cur) = if dim == 0 {
+                (self.sample_bounds.min.x, pixel.x)
+            } else {
+                (self.sample_bounds.min.y, pixel.y)
+            };
+            s = s * self.resolution as f32 + min as f32;
+            s = (s - cur as f32).clamp(0.0, ONE_MINUS_EPSILON);
+        }
+        s
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn vdc_matrices_match_pbrt_tables() {
+        let (f, i) = vdc_sobol_matrices(1);
+        assert_eq!(&i[..2], &[0x2, 0x3]);
+        assert_eq!(f[0], 1);
+        let (_, i) = vdc_sobol_matrices(4);
+        assert_eq!(&i[..8], &[0xf0, 0x50, 0x30, 0x10, 0x88, 0x44, 0x22, 0x11]);
+        let (f, _) = vdc_sobol_matrices(9);
+        assert_eq!(&f[..4], &[0x140, 0x1e0, 0x110, 0x198]);
+        let (f, _) = vdc_sobol_matrices(16);
+        assert_eq!(&f[..4], &[0x8000, 0xc000, 0xa000, 0xf000]);
+        let (f, i) = vdc_sobol_matrices(25);
+        assert_eq!(&f[..3], &[0x1400140, 0x1e001e0, 0]);
+        assert_eq!(&i[..3], &[0x2020202000000, 0x3fc03fc000000, 0x3560356000000]);
+        let (_, i) = vdc_sobol_matrices(26);
+        assert_eq!(i[0], 0xc0c0c0c000000);
+        assert_eq!(i[51], 0x100000001);
+    }
+
+    #[test]
+    fn interval_index_lands_in_its_pixel() {
+        let b = Bounds2i::new(Point2i::new(-3, 2), Point2i::new(20, 11));
+        let mut s = Sobol::new(b);
+        assert_eq!(s.resolution, 32);
+        for p in b.iter() {
+            for n in 0..8 {
+                let idx = s.index_for_sample(p, n);
+                let x = sobol_sample(idx, 0) * 32.0 + b.min.x as f32;
+                let y = sobol_sample(idx, 1) * 32.0 + b.min.y as f32;
+                assert_eq!((x.floor() as i32, y.floor() as i32), (p.x, p.y), "{p:?} {n}");
+            }
+        }
+    }
+}

@@ -1,0 +1,249 @@
+//! The renderable scene, built from a `SceneDescription` in a camera-centred
+//! render space (pbrt-v4's approach): everything is translated so the camera
+//! sits at the origin, which keeps float precision where the image is made
+//! even when the scene lies far from the world origin.
+
+use crate::accel::Bvh;
+use crate::error::BuildError;
+use crate::lights::{self, DiffuseAreaLight, Light};
+use crate::materials::{self, Material};
+use crate::primitive::{Aggregate, Hit, Instance, Placement, Primitive};
+use crate::shapes::{self, Shape};
+use crate::textures::{self, TextureSet};
+use farm_common::geometry::{AnimatedTransform, Bounds3f, DMat4, Ray, Transform, Vec3};
+use farm_common::scene::{AnimatedXform, Params, SceneDescription, ShapeEntity, Warning};
+use farm_common::Spectrum;
+use std::collections::HashMap;
+use std::sync::Arc;
+
+/// Geometry, lights and materials, ready for rays.
+#[derive(Debug)]
+pub struct Scene {
+    /// Primitives outside instances.
+    pub aggregate: Aggregate,
+    /// Object instances and moving shapes.
+    pub instances: Vec<Instance>,
+    instance_bvh: Bvh,
+    /// All lights, area lights included.
+    pub lights: Vec<Light>,
+    /// Materials, indexed by `Primitive::material`.
+    pub materials: Vec<Material>,
+    /// Textures the materials refer to.
+    pub textures: TextureSet,
+    /// Render-space bounds of everything.
+    pub bounds: Bounds3f,
+    /// Render-from-world: a translation by minus the camera position.
+    pub render_from_world: Transform,
+}
+
+impl Scene {
+    /// Builds the scene; `render_from_world` comes from the camera.
+    pub fn build(
+        desc: &SceneDescription,
+        render_from_world: DMat4,
+        warnings: &mut Vec<Warning>,
+    ) -> Result<Scene, BuildError> {
+        let rfw = Transform::from_dmat4(render_from_world);
+        let textures = textures::build(&desc.textures, &rfw, &desc.assets, warnings);
+        let materials = materials::build(&desc.materials, &textures, warnings);
+        let mut lights = Vec::new();
+        for l in &desc.lights {
+            if !l.world_from_light.is_static() {
+                warnings.push(Warning::at(
+                    &l.entity.loc,
+                    "animated light transforms are not supported; using the start transform",
+                ));
+            }
+            let xf = Transform::from_dmat4(render_from_world * l.world_from_light.start);
+            if let Some(light) = lights::create(&l.entity, &xf, &desc.assets, warnings) {
+                lights.push(light);
+            }
+        }
+        if !desc.media.is_empty() {
+            warnings.push(Warning {
+                loc: Some(desc.media[0].entity.loc.clone()),
+                message: "participating media are ignored by the Whitted integrator".into(),
+            });
+        }
+
+        // Shapes outside instances: static ones go straight into the top-level
+        // BVH; moving ones become single-use instances.
+        let mut prims = Vec::new();
+        let mut instances = Vec::new();
+        for s in &desc.shapes {
+            if s.world_from_object.is_static() {
+                let xf = Transform::from_dmat4(render_from_world * s.world_from_object.start);
+                add_shape(s, &xf, Some(&mut lights), &mut prims, warnings);
+            } else {
+                let mut local = Vec::new();
+                add_shape(s, &Transform::default(), None, &mut local, warnings);
+                if s.area_light.is_some() {
+                    warnings.push(Warning::at(
+                        &s.entity.loc,
+                        "area lights on moving shapes are not supported; the shape does not emit",
+                    ));
+                }
+                if !local.is_empty() {
+                    instances.push(Instance {
+                        geometry: Arc::new(Aggregate::new(local)),
+                        placement: placement(&s.world_from_object, render_from_world),
+                    });
+                }
+            }
+        }
+
+        // Object instances share one aggregate per object.
+        let mut objects: HashMap<u32, Arc<Aggregate>> = HashMap::new();
+        for inst in &desc.instances {
+            let Some(obj) = desc.objects.get(inst.object as usize) else {
+                warnings.push(Warning::at(&inst.loc, "ObjectInstance refers to an unknown object"));
+                continue;
+            };
+            let geometry = objects
+                .entry(inst.object)
+                .or_insert_with(|| {
+                    let mut local = Vec::new();
+                    for s in &obj.shapes {
+                        if !s.world_from_object.is_static() {
+                            warnings.push(Warning::at(
+                                &s.entity.loc,
+                                "moving shapes inside object instances use their start transform",
+                            ));
+                        }
+                        let xf = Transform::from_dmat4(s.world_from_object.start);
+                        add_shape(s, &xf, None, &mut local, warnings);
+                    }
+                    Arc::new(Aggregate::new(local))
+                })
+                .clone();
+            if geometry.is_empty() {
+                continue;
+            }
+            instances.push(Instance {
+                geometry,
+                placement: placement(&inst.world_from_instance, render_from_world),
+            });
+        }
+
+        let aggregate = Aggregate::new(prims);
+        let inst_bounds: Vec<Bounds3f> = instances.iter().map(|i| i.bounds()).collect();
+        let (instance_bvh, order) = Bvh::build(&inst_bounds, 1);
+        let mut slots: Vec<Option<Instance>> = instances.into_iter().map(Some).collect();
+        let instances: Vec<Instance> =
+            order.iter().filter_map(|&i| slots[i as usize].take()).collect();
+        let bounds = aggregate.bounds().union(&instance_bvh.bounds());
+
+        let (center, radius) =
+            if bounds.is_empty() { (Vec3::ZERO, 0.0) } else { bounds.bounding_sphere() };
+        for l in &mut lights {
+            l.preprocess(center, radius);
+        }
+        Ok(Scene {
+            aggregate,
+            instances,
+            instance_bvh,
+            lights,
+            materials,
+            textures,
+            bounds,
+            render_from_world: rfw,
+        })
+    }
+
+    /// The closest hit along `ray`.
+    #[inline]
+    pub fn intersect(&self, ray: &Ray) -> Option<Hit<'_>> {
+        let mut r = *ray;
+        let mut best = self.aggregate.intersect(&r).map(|(t, h)| {
+            r.t_max = t;
+            h
+        });
+        if !self.instances.is_empty() {
+            let mut inst_hit = None;
+            self.instance_bvh.intersect(&r, |i, rr| {
+                let (t, h) = self.instances[i].intersect(rr)?;
+                inst_hit = Some(h);
+                Some(t)
+            });
+            if inst_hit.is_some() {
+                best = inst_hit;
+            }
+        }
+        best
+    }
+
+    /// Whether anything blocks `ray` before its `t_max`.
+    #[inline]
+    pub fn intersect_p(&self, ray: &Ray) -> bool {
+        self.aggregate.intersect_p(ray)
+            || (!self.instances.is_empty()
+                && self.instance_bvh.intersect_any(ray, |i, r| self.instances[i].intersect_p(r)))
+    }
+}
+
+fn placement(x: &AnimatedXform, render_from_world: DMat4) -> Placement {
+    let start = Transform::from_dmat4(render_from_world * x.start);
+    if x.is_static() {
+        return Placement::Static(start);
+    }
+    let end = Transform::from_dmat4(render_from_world * x.end);
+    Placement::Animated(AnimatedTransform::new(start, x.start_time, end, x.end_time))
+}
+
+/// Creates the shapes of one entity as primitives; with `lights`, shapes under
+/// an `AreaLightSource` each get a diffuse area light, as in pbrt-v3.
+fn add_shape(
+    s: &ShapeEntity,
+    render_from_object: &Transform,
+    lights: Option<&mut Vec<Light>>,
+    prims: &mut Vec<Primitive>,
+    warnings: &mut Vec<Warning>,
+) {
+    let params = Params::new(&s.entity.params);
+    let shapes: Vec<Shape> = shapes::create(
+        &s.entity.name,
+        &params,
+        render_from_object,
+        s.reverse_orientation,
+        warnings,
+    );
+    warnings.extend(params.unused_warnings());
+    let area = match (&s.area_light, lights) {
+        (Some(al), Some(lights)) => {
+            if al.name != "diffuse" && al.name != "area" {
+                warnings.push(Warning::at(
+                    &al.loc,
+                    format!("AreaLightSource: area light \"{}\" unknown.", al.name),
+                ));
+                None
+            } else {
+                let p = Params::new(&al.params);
+                let l_emit = p.spectrum("L", Spectrum::ONE) * p.spectrum("scale", Spectrum::ONE);
+                let two_sided = p.bool("twosided", false);
+                p.touch("samples");
+                p.touch("nsamples");
+                warnings.extend(p.unused_warnings());
+                Some((l_emit, two_sided, lights))
+            }
+        }
+        _ => None,
+    };
+    match area {
+        Some((l_emit, two_sided, lights)) => {
+            for shape in shapes {
+                let id = lights.len() as u32;
+                lights.push(Light::Area(DiffuseAreaLight {
+                    l_emit,
+                    shape: shape.clone(),
+                    two_sided,
+                }));
+                prims.push(Primitive { shape, material: s.material, area_light: Some(id) });
+            }
+        }
+        None => prims.extend(shapes.into_iter().map(|shape| Primitive {
+            shape,
+            material: s.material,
+            area_light: None,
+        })),
+    }
+}

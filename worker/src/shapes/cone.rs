@@ -1,0 +1,91 @@
+//! Partial cones (pbrt-v3 `shapes/cone.cpp`):
+//! `Shape "cone" "float radius" 1 "float height" 1 "float phimax" 360`.
+
+use super::efloat::{
+    nearest_hit, phi_of, quadratic, ray_point_error, weingarten, EFloat, Placement,
+};
+use crate::interaction::SurfaceInteraction;
+use farm_common::geometry::{Bounds3f, Ray, Vec2, Vec3};
+
+/// A cone with its base of `radius` at z = 0 and apex at z = `height`.
+#[derive(Clone, Debug)]
+pub struct Cone {
+    /// Transforms and orientation.
+    pub placement: Placement,
+    /// Base radius.
+    pub radius: f32,
+    /// Apex height.
+    pub height: f32,
+    /// Largest φ, in radians.
+    pub phi_max: f32,
+}
+
+impl Cone {
+    /// pbrt-v3's constructor (φ in degrees).
+    pub fn new(placement: Placement, height: f32, radius: f32, phi_max_deg: f32) -> Self {
+        Cone { placement, radius, height, phi_max: phi_max_deg.clamp(0.0, 360.0).to_radians() }
+    }
+
+    /// Render-space bounds.
+    pub fn bounds(&self) -> Bounds3f {
+        let r = self.radius;
+        self.placement.bounds(&Bounds3f::new(Vec3::new(-r, -r, 0.0), Vec3::new(r, r, self.height)))
+    }
+
+    #[allow(clippy::type_complexity)]
+    fn hit(&self, r: &Ray) -> Option<(Ray, [EFloat; 3], [EFloat; 3], EFloat, (Vec3, f32))> {
+        let (ray, o, d) = self.placement.efloat_ray(r);
+        let mut k = EFloat::from(self.radius) / EFloat::from(self.height);
+        k = k * k;
+        let h = EFloat::from(self.height);
+        let a = d[0] * d[0] + d[1] * d[1] - k * d[2] * d[2];
+        let b = 2.0 * (d[0] * o[0] + d[1] * o[1] - k * d[2] * (o[2] - h));
+        let c = o[0] * o[0] + o[1] * o[1] - k * (o[2] - h) * (o[2] - h);
+        let (t0, t1) = quadratic(a, b, c)?;
+        let eval = |t: f32| {
+            let p = ray.at(t);
+            let phi = phi_of(p.y, p.x);
+            let clipped = p.z < 0.0 || p.z > self.height || phi > self.phi_max;
+            (!clipped).then_some((p, phi))
+        };
+        let (t, hp) = nearest_hit(t0, t1, ray.t_max, eval)?;
+        Some((ray, o, d, t, hp))
+    }
+
+    /// Nearest hit, in render space.
+    pub fn intersect(&self, r: &Ray) -> Option<(f32, SurfaceInteraction)> {
+        let (ray, o, d, t, (p, phi)) = self.hit(r)?;
+        let u = phi / self.phi_max;
+        let v = p.z / self.height;
+        let dpdu = Vec3::new(-self.phi_max * p.y, self.phi_max * p.x, 0.0);
+        let dpdv = Vec3::new(-p.x / (1.0 - v), -p.y / (1.0 - v), self.height);
+        let d2pduu = -self.phi_max * self.phi_max * Vec3::new(p.x, p.y, 0.0);
+        let d2pduv = self.phi_max / (1.0 - v) * Vec3::new(p.y, -p.x, 0.0);
+        let (dndu, dndv) = weingarten(dpdu, dpdv, d2pduu, d2pduv, Vec3::ZERO);
+        let p_error = ray_point_error(&o, &d, t);
+        let si = SurfaceInteraction::new(
+            p,
+            p_error,
+            Vec2::new(u, v),
+            -ray.d,
+            dpdu,
+            dpdv,
+            dndu,
+            dndv,
+            r.time,
+            self.placement.flip(),
+        );
+        Some((t.v, self.placement.render_hit(&si)))
+    }
+
+    /// Whether the ray hits.
+    pub fn intersect_p(&self, r: &Ray) -> bool {
+        self.hit(r).is_some()
+    }
+
+    /// Surface area (object space).
+    pub fn area(&self) -> f32 {
+        self.radius * (self.height * self.height + self.radius * self.radius).sqrt() * self.phi_max
+            / 2.0
+    }
+}

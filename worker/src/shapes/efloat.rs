@@ -1,0 +1,301 @@
+//! Running error bounds for quadric intersection (pbrt-v3 `core/efloat.h`),
+//! plus the object-space plumbing the quadrics and curves share.
+
+use crate::interaction::SurfaceInteraction;
+use farm_common::geometry::{
+    next_float_down, next_float_up, Bounds3f, Ray, Transform, Vec3, MACHINE_EPSILON,
+};
+use std::ops::{Add, Div, Mul, Neg, Sub};
+
+/// A float with a conservative interval `[low, high]` around its true value.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct EFloat {
+    /// The computed value.
+    pub v: f32,
+    low: f32,
+    high: f32,
+}
+
+impl EFloat {
+    /// `v` with absolute error `err`, the interval rounded outwards.
+    #[inline]
+    pub fn new(v: f32, err: f32) -> Self {
+        if err == 0.0 {
+            EFloat { v, low: v, high: v }
+        } else {
+            EFloat { v, low: next_float_down(v - err), high: next_float_up(v + err) }
+        }
+    }
+    /// Upper end of the interval.
+    #[inline]
+    pub fn upper_bound(self) -> f32 {
+        self.high
+    }
+    /// Lower end of the interval.
+    #[inline]
+    pub fn lower_bound(self) -> f32 {
+        self.low
+    }
+    /// Width of the interval.
+    #[inline]
+    pub fn absolute_error(self) -> f32 {
+        self.high - self.low
+    }
+}
+
+impl From<f32> for EFloat {
+    #[inline]
+    fn from(v: f32) -> Self {
+        EFloat { v, low: v, high: v }
+    }
+}
+
+impl Add for EFloat {
+    type Output = EFloat;
+    #[inline]
+    fn add(self, o: EFloat) -> EFloat {
+        EFloat {
+            v: self.v + o.v,
+            low: next_float_down(self.low + o.low),
+            high: next_float_up(self.high + o.high),
+        }
+    }
+}
+
+impl Sub for EFloat {
+    type Output = EFloat;
+    #[inline]
+    fn sub(self, o: EFloat) -> EFloat {
+        EFloat {
+            v: self.v - o.v,
+            low: next_float_down(self.low - o.high),
+            high: next_float_up(self.high - o.low),
+        }
+    }
+}
+
+impl Mul for EFloat {
+    type Output = EFloat;
+    #[inline]
+    fn mul(self, o: EFloat) -> EFloat {
+        let p = [self.low * o.low, self.high * o.low, self.low * o.high, self.high * o.high];
+        EFloat {
+            v: self.v * o.v,
+            low: next_float_down(p[0].min(p[1]).min(p[2].min(p[3]))),
+            high: next_float_up(p[0].max(p[1]).max(p[2].max(p[3]))),
+        }
+    }
+}
+
+impl Div for EFloat {
+    type Output = EFloat;
+    #[inline]
+    fn div(self, o: EFloat) -> EFloat {
+        let v = self.v / o.v;
+        if o.low < 0.0 && o.high > 0.0 {
+            return EFloat { v, low: f32::NEG_INFINITY, high: f32::INFINITY };
+        }
+        let d = [self.low / o.low, self.high / o.low, self.low / o.high, self.high / o.high];
+        EFloat {
+            v,
+            low: next_float_down(d[0].min(d[1]).min(d[2].min(d[3]))),
+            high: next_float_up(d[0].max(d[1]).max(d[2].max(d[3]))),
+        }
+    }
+}
+
+impl Neg for EFloat {
+    type Output = EFloat;
+    #[inline]
+    fn neg(self) -> EFloat {
+        EFloat { v: -self.v, low: -self.high, high: -self.low }
+    }
+}
+
+impl Mul<EFloat> for f32 {
+    type Output = EFloat;
+    #[inline]
+    fn mul(self, o: EFloat) -> EFloat {
+        EFloat::from(self) * o
+    }
+}
+
+impl Sub<f32> for EFloat {
+    type Output = EFloat;
+    #[inline]
+    fn sub(self, o: f32) -> EFloat {
+        self - EFloat::from(o)
+    }
+}
+
+/// Roots `t0 <= t1` of `a t² + b t + c` with error bounds (pbrt-v3 `Quadratic`).
+#[inline]
+pub fn quadratic(a: EFloat, b: EFloat, c: EFloat) -> Option<(EFloat, EFloat)> {
+    let discrim = b.v as f64 * b.v as f64 - 4.0 * a.v as f64 * c.v as f64;
+    if discrim < 0.0 {
+        return None;
+    }
+    let root = discrim.sqrt();
+    let float_root = EFloat::new(root as f32, (MACHINE_EPSILON as f64 * root) as f32);
+    let q = if b.v < 0.0 { -0.5 * (b - float_root) } else { -0.5 * (b + float_root) };
+    let mut t0 = q / a;
+    let mut t1 = c / q;
+    if t0.v > t1.v {
+        std::mem::swap(&mut t0, &mut t1);
+    }
+    Some((t0, t1))
+}
+
+/// Picks the nearest valid root the way every pbrt-v3 quadric does: `eval`
+/// maps a `t` to the refined hit and its φ, or `None` when clipped away.
+#[inline]
+pub(crate) fn nearest_hit<H>(
+    t0: EFloat,
+    t1: EFloat,
+    t_max: f32,
+    eval: impl Fn(f32) -> Option<H>,
+) -> Option<(EFloat, H)> {
+    if t0.upper_bound() > t_max || t1.lower_bound() <= 0.0 {
+        return None;
+    }
+    let mut t = t0;
+    if t.lower_bound() <= 0.0 {
+        t = t1;
+        if t.upper_bound() > t_max {
+            return None;
+        }
+    }
+    if let Some(h) = eval(t.v) {
+        return Some((t, h));
+    }
+    if t.v == t1.v || t1.upper_bound() > t_max {
+        return None;
+    }
+    eval(t1.v).map(|h| (t1, h))
+}
+
+/// φ in [0, 2π) from `atan2(y, x)`.
+#[inline]
+pub(crate) fn phi_of(y: f32, x: f32) -> f32 {
+    let phi = y.atan2(x);
+    if phi < 0.0 {
+        phi + 2.0 * std::f32::consts::PI
+    } else {
+        phi
+    }
+}
+
+/// ∂n/∂u and ∂n/∂v by the Weingarten equations.
+#[inline]
+pub(crate) fn weingarten(
+    dpdu: Vec3,
+    dpdv: Vec3,
+    d2pduu: Vec3,
+    d2pduv: Vec3,
+    d2pdvv: Vec3,
+) -> (Vec3, Vec3) {
+    let (e1, f1, g1) = (dpdu.dot(dpdu), dpdu.dot(dpdv), dpdv.dot(dpdv));
+    let n = dpdu.cross(dpdv).normalize();
+    let (e, f, g) = (n.dot(d2pduu), n.dot(d2pduv), n.dot(d2pdvv));
+    let inv = 1.0 / (e1 * g1 - f1 * f1);
+    let dndu = (f * f1 - e * g1) * inv * dpdu + (e * f1 - f * e1) * inv * dpdv;
+    let dndv = (g * f1 - f * g1) * inv * dpdu + (f * f1 - g * e1) * inv * dpdv;
+    (dndu, dndv)
+}
+
+/// Placement of an object-space shape: its transforms and orientation flags.
+#[derive(Clone, Copy, Debug)]
+pub struct Placement {
+    /// Object to render space.
+    pub render_from_object: Transform,
+    /// Render to object space.
+    pub object_from_render: Transform,
+    /// `ReverseOrientation` was in effect.
+    pub reverse_orientation: bool,
+    /// The transform flips handedness.
+    pub transform_swaps_handedness: bool,
+}
+
+impl Placement {
+    /// The placement for `render_from_object`.
+    pub fn new(render_from_object: &Transform, reverse_orientation: bool) -> Self {
+        Placement {
+            render_from_object: *render_from_object,
+            object_from_render: render_from_object.inverse(),
+            reverse_orientation,
+            transform_swaps_handedness: render_from_object.swaps_handedness(),
+        }
+    }
+
+    /// Whether normals are flipped.
+    #[inline]
+    pub fn flip(&self) -> bool {
+        self.reverse_orientation ^ self.transform_swaps_handedness
+    }
+
+    /// The ray in object space with origin and direction error bounds; like
+    /// pbrt-v3 the origin moves to the edge of its error box but `t_max` is kept.
+    #[inline]
+    pub(crate) fn object_ray(&self, r: &Ray) -> (Ray, Vec3, Vec3) {
+        let (mut ray, o_err, d_err) = self.object_from_render.ray_with_error(r);
+        ray.t_max = r.t_max;
+        (ray, o_err, d_err)
+    }
+
+    /// The object-space ray with its coordinates as [`EFloat`]s.
+    #[inline]
+    pub(crate) fn efloat_ray(&self, r: &Ray) -> (Ray, [EFloat; 3], [EFloat; 3]) {
+        let (ray, oe, de) = self.object_ray(r);
+        let o =
+            [EFloat::new(ray.o.x, oe.x), EFloat::new(ray.o.y, oe.y), EFloat::new(ray.o.z, oe.z)];
+        let d =
+            [EFloat::new(ray.d.x, de.x), EFloat::new(ray.d.y, de.y), EFloat::new(ray.d.z, de.z)];
+        (ray, o, d)
+    }
+
+    /// Render-space bounds of an object-space box.
+    #[inline]
+    pub(crate) fn bounds(&self, b: &Bounds3f) -> Bounds3f {
+        self.render_from_object.bounds(b)
+    }
+
+    /// A hit built in object space, moved to render space.
+    #[inline]
+    pub(crate) fn render_hit(&self, si: &SurfaceInteraction) -> SurfaceInteraction {
+        si.transform(&self.render_from_object)
+    }
+}
+
+/// Absolute error of `o + t d` per axis (used by cone, paraboloid, hyperboloid).
+#[inline]
+pub(crate) fn ray_point_error(o: &[EFloat; 3], d: &[EFloat; 3], t: EFloat) -> Vec3 {
+    Vec3::new(
+        (o[0] + t * d[0]).absolute_error(),
+        (o[1] + t * d[1]).absolute_error(),
+        (o[2] + t * d[2]).absolute_error(),
+    )
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn intervals_contain_double_results() {
+        let a = EFloat::new(0.1, 1e-7);
+        let b = EFloat::new(3.3, 0.0);
+        let exact = 0.1f64 * 3.3f64 - 3.3 / 0.1;
+        let r = a * b - b / a;
+        assert!(r.lower_bound() as f64 <= exact && exact <= r.upper_bound() as f64);
+    }
+
+    #[test]
+    fn quadratic_roots_bracket_true_roots() {
+        // (t - 2)(t - 1e4) = t² - 10002 t + 20000
+        let (t0, t1) =
+            quadratic(1.0.into(), (-10002.0).into(), 20000.0.into()).expect("real roots");
+        assert!(t0.lower_bound() <= 2.0 && 2.0 <= t0.upper_bound());
+        assert!(t1.lower_bound() <= 1e4 && 1e4 <= t1.upper_bound());
+        assert!(quadratic(1.0.into(), 0.0.into(), 1.0.into()).is_none());
+    }
+}

@@ -1,0 +1,163 @@
+//! Geometric shapes (pbrt-v3 `core/shape.h` and `shapes/*`): ray
+//! intersection with conservative error bounds, area sampling and the
+//! solid-angle densities area lights need. Everything returned is in render space.
+
+mod cone;
+mod create;
+mod curve;
+mod cylinder;
+mod disk;
+mod efloat;
+mod hyperboloid;
+mod loopsubdiv;
+mod paraboloid;
+mod sphere;
+mod triangle;
+
+pub use cone::Cone;
+pub use create::create;
+pub use curve::{Curve, CurveCommon, CurveType};
+pub use cylinder::Cylinder;
+pub use disk::Disk;
+pub use efloat::{quadratic, EFloat, Placement};
+pub use hyperboloid::Hyperboloid;
+pub use loopsubdiv::loop_subdivide;
+pub use paraboloid::Paraboloid;
+pub use sphere::Sphere;
+pub use triangle::{AlphaMask, Triangle, TriangleMesh};
+
+use crate::interaction::{Interaction, SurfaceInteraction};
+use farm_common::geometry::{Bounds3f, Ray, Vec2, Vec3};
+
+/// A shape of any kind; dispatch is a `match`, with no allocation per ray.
+#[derive(Clone, Debug)]
+pub enum Shape {
+    /// `sphere`
+    Sphere(Box<Sphere>),
+    /// `cylinder`
+    Cylinder(Box<Cylinder>),
+    /// `disk`
+    Disk(Box<Disk>),
+    /// `cone`
+    Cone(Box<Cone>),
+    /// `paraboloid`
+    Paraboloid(Box<Paraboloid>),
+    /// `hyperboloid`
+    Hyperboloid(Box<Hyperboloid>),
+    /// One triangle of a `trianglemesh`, `loopsubdiv` or `heightfield`.
+    Triangle(Triangle),
+    /// One segment of a `curve`.
+    Curve(Curve),
+}
+
+macro_rules! dispatch {
+    ($self:ident, $s:ident => $e:expr) => {
+        match $self {
+            Shape::Sphere($s) => $e,
+            Shape::Cylinder($s) => $e,
+            Shape::Disk($s) => $e,
+            Shape::Cone($s) => $e,
+            Shape::Paraboloid($s) => $e,
+            Shape::Hyperboloid($s) => $e,
+            Shape::Triangle($s) => $e,
+            Shape::Curve($s) => $e,
+        }
+    };
+}
+
+impl Shape {
+    /// Bounds in render space.
+    pub fn bounds(&self) -> Bounds3f {
+        dispatch!(self, s => s.bounds())
+    }
+
+    /// The nearest hit with `t < ray.t_max`: its `t` and the interaction
+    /// (render space, `wo = -ray.d` normalised, `prim` left 0).
+    #[inline]
+    pub fn intersect(&self, ray: &Ray) -> Option<(f32, SurfaceInteraction)> {
+        dispatch!(self, s => s.intersect(ray))
+    }
+
+    /// Like [`Shape::intersect`] but ignoring alpha masks (pbrt-v3 `Pdf`'s lookup).
+    #[inline]
+    pub fn intersect_no_alpha(&self, ray: &Ray) -> Option<(f32, SurfaceInteraction)> {
+        match self {
+            Shape::Triangle(t) => t.intersect_with(ray, false),
+            _ => dispatch!(self, s => s.intersect(ray)),
+        }
+    }
+
+    /// Whether anything is hit with `t < ray.t_max`.
+    #[inline]
+    pub fn intersect_p(&self, ray: &Ray) -> bool {
+        dispatch!(self, s => s.intersect_p(ray))
+    }
+
+    /// Surface area (for quadrics and curves, in object space as in pbrt-v3).
+    pub fn area(&self) -> f32 {
+        dispatch!(self, s => s.area())
+    }
+
+    /// A point on the surface with its normal and error bound, and the
+    /// density with respect to area. pbrt-v3 cannot sample cones,
+    /// paraboloids, hyperboloids or curves; those return density 0.
+    pub fn sample_area(&self, u: Vec2) -> (Interaction, f32) {
+        match self {
+            Shape::Sphere(s) => s.sample_area(u),
+            Shape::Cylinder(s) => s.sample_area(u),
+            Shape::Disk(s) => s.sample_area(u),
+            Shape::Triangle(s) => s.sample_area(u),
+            _ => (Interaction::default(), 0.0),
+        }
+    }
+
+    /// A point sampled for lighting `reference`, with its density with
+    /// respect to solid angle at `reference`; `None` when that density is 0 or infinite.
+    pub fn sample_from(&self, reference: &Interaction, u: Vec2) -> Option<(Interaction, f32)> {
+        match self {
+            Shape::Sphere(s) => s.sample_from(reference, u),
+            _ => {
+                let (it, pdf) = self.sample_area(u);
+                area_to_solid_angle(reference, it, pdf)
+            }
+        }
+    }
+
+    /// Solid-angle density at `reference` of sampling direction `wi`.
+    pub fn pdf_from(&self, reference: &Interaction, wi: Vec3) -> f32 {
+        match self {
+            Shape::Sphere(s) => s.pdf_from(self, reference, wi),
+            _ => generic_pdf(self, reference, wi),
+        }
+    }
+}
+
+/// Converts an area-density sample to solid angle at `reference` (pbrt-v3 `Shape::Sample(ref, u)`).
+fn area_to_solid_angle(
+    reference: &Interaction,
+    mut it: Interaction,
+    pdf: f32,
+) -> Option<(Interaction, f32)> {
+    it.time = reference.time;
+    let wi = it.p - reference.p;
+    if pdf == 0.0 || wi.length_squared() == 0.0 {
+        return None;
+    }
+    let wi = wi.normalize();
+    let pdf = pdf * reference.p.distance_squared(it.p) / it.n.dot(-wi).abs();
+    (pdf.is_finite() && pdf > 0.0).then_some((it, pdf))
+}
+
+/// pbrt-v3 `Shape::Pdf`: trace `wi` and convert 1/area to solid angle.
+fn generic_pdf(shape: &Shape, reference: &Interaction, wi: Vec3) -> f32 {
+    let ray = reference.spawn_ray(wi);
+    let Some((_, isect)) = shape.intersect_no_alpha(&ray) else {
+        return 0.0;
+    };
+    let pdf = reference.p.distance_squared(isect.it.p) / (isect.it.n.dot(-wi).abs() * shape.area());
+    if pdf.is_infinite() {
+        0.0
+    } else {
+        pdf
+    }
+}

@@ -1,0 +1,411 @@
+//! Triangle meshes (pbrt-v3 `shapes/triangle.cpp`): `Shape "trianglemesh"
+//! "integer indices" [...] "point3 P" [...] "normal N" [...] "vector S" [...] "point2 uv" [...]`.
+//! Vertices are stored in render space; intersection is the watertight
+//! permute/shear algorithm with a double-precision fallback on edges.
+
+use crate::interaction::{Interaction, Shading, SurfaceInteraction};
+use crate::sampling::uniform_sample_triangle;
+use farm_common::geometry::{coordinate_system, face_forward, gamma, Bounds3f, Ray, Vec2, Vec3};
+use farm_common::scene::TextureRef;
+use std::sync::Arc;
+
+/// An alpha mask on a mesh (`"float alpha"`, `"texture alpha"` and their `shadowalpha` twins).
+#[derive(Clone, Debug, Default, PartialEq)]
+pub enum AlphaMask {
+    /// No mask.
+    #[default]
+    None,
+    /// `"float alpha" 0`: every hit is cut away.
+    Zero,
+    /// A float texture; hits where it evaluates to 0 are cut away by the
+    /// primitive layer, which can evaluate textures.
+    Texture(TextureRef),
+}
+
+/// The shared data of a mesh, already in render space.
+#[derive(Clone, Debug, Default)]
+pub struct TriangleMesh {
+    /// Vertex positions.
+    pub p: Vec<Vec3>,
+    /// Per-vertex shading normals (not normalised).
+    pub n: Option<Vec<Vec3>>,
+    /// Per-vertex tangents.
+    pub s: Option<Vec<Vec3>>,
+    /// Per-vertex (u, v).
+    pub uv: Option<Vec<Vec2>>,
+    /// `ReverseOrientation` was in effect.
+    pub reverse_orientation: bool,
+    /// The object-to-render transform flips handedness.
+    pub transform_swaps_handedness: bool,
+    /// Mask tested by `intersect`.
+    pub alpha: AlphaMask,
+    /// Extra mask tested by `intersect_p` (shadow rays).
+    pub shadow_alpha: AlphaMask,
+}
+
+/// One triangle of a mesh.
+#[derive(Clone, Debug)]
+pub struct Triangle {
+    /// The mesh.
+    pub mesh: Arc<TriangleMesh>,
+    /// Vertex indices into the mesh.
+    pub v: [u32; 3],
+}
+
+/// The result of the watertight test: barycentrics and t.
+struct RawHit {
+    b: [f32; 3],
+    t: f32,
+}
+
+impl Triangle {
+    #[inline(always)]
+    fn points(&self) -> (Vec3, Vec3, Vec3) {
+        let p = &self.mesh.p;
+        (p[self.v[0] as usize], p[self.v[1] as usize], p[self.v[2] as usize])
+    }
+
+    /// Render-space bounds.
+    pub fn bounds(&self) -> Bounds3f {
+        let (p0, p1, p2) = self.points();
+        Bounds3f::new(p0, p1).union_point(p2)
+    }
+
+    /// The watertight ray–triangle test.
+    #[inline(always)]
+    fn raw_hit(&self, ray: &Ray) -> Option<RawHit> {
+        let (p0, p1, p2) = self.points();
+        let (mut p0t, mut p1t, mut p2t) = (p0 - ray.o, p1 - ray.o, p2 - ray.o);
+        // Permute so that the ray's largest direction component is z.
+        let ad = ray.d.abs();
+        let kz = if ad.x > ad.y {
+            if ad.x > ad.z {
+                0
+            } else {
+                2
+            }
+        } else if ad.y > ad.z {
+            1
+        } else {
+            2
+        };
+        let kx = if kz + 1 == 3 { 0 } else { kz + 1 };
+        let ky = if kx + 1 == 3 { 0 } else { kx + 1 };
+        let perm = |v: Vec3| Vec3::new(v[kx], v[ky], v[kz]);
+        let d = perm(ray.d);
+        p0t = perm(p0t);
+        p1t = perm(p1t);
+        p2t = perm(p2t);
+        // Shear so the ray runs along +z.
+        let sx = -d.x / d.z;
+        let sy = -d.y / d.z;
+        let sz = 1.0 / d.z;
+        p0t.x += sx * p0t.z;
+        p0t.y += sy * p0t.z;
+        p1t.x += sx * p1t.z;
+        p1t.y += sy * p1t.z;
+        p2t.x += sx * p2t.z;
+        p2t.y += sy * p2t.z;
+        // Edge functions, redone in double precision when any is exactly zero.
+        let mut e0 = p1t.x * p2t.y - p1t.y * p2t.x;
+        let mut e1 = p2t.x * p0t.y - p2t.y * p0t.x;
+        let mut e2 = p0t.x * p1t.y - p0t.y * p1t.x;
+        if e0 == 0.0 || e1 == 0.0 || e2 == 0.0 {
+            let (a, b, c) = (p0t.as_dvec3(), p1t.as_dvec3(), p2t.as_dvec3());
+            e0 = (c.y * b.x - c.x * b.y) as f32;
+            e1 = (a.y * c.x - a.x * c.y) as f32;
+            e2 = (b.y * a.x - b.x * a.y) as f32;
+        }
+        if (e0 < 0.0 || e1 < 0.0 || e2 < 0.0) && (e0 > 0.0 || e1 > 0.0 || e2 > 0.0) {
+            return None;
+        }
+        let det = e0 + e1 + e2;
+        if det == 0.0 {
+            return None;
+        }
+        // Scaled hit distance against the ray's range.
+        p0t.z *= sz;
+        p1t.z *= sz;
+        p2t.z *= sz;
+        let t_scaled = e0 * p0t.z + e1 * p1t.z + e2 * p2t.z;
+        if det < 0.0 && (t_scaled >= 0.0 || t_scaled < ray.t_max * det) {
+            return None;
+        }
+        if det > 0.0 && (t_scaled <= 0.0 || t_scaled > ray.t_max * det) {
+            return None;
+        }
+        let inv_det = 1.0 / det;
+        let b = [e0 * inv_det, e1 * inv_det, e2 * inv_det];
+        let t = t_scaled * inv_det;
+        // Make sure t is conservatively greater than zero.
+        let max_zt = Vec3::new(p0t.z, p1t.z, p2t.z).abs().max_element();
+        let delta_z = gamma(3) * max_zt;
+        let max_xt = Vec3::new(p0t.x, p1t.x, p2t.x).abs().max_element();
+        let max_yt = Vec3::new(p0t.y, p1t.y, p2t.y).abs().max_element();
+        let delta_x = gamma(5) * (max_xt + max_zt);
+        let delta_y = gamma(5) * (max_yt + max_zt);
+        let delta_e = 2.0 * (gamma(2) * max_xt * max_yt + delta_y * max_xt + delta_x * max_yt);
+        let max_e = Vec3::new(e0, e1, e2).abs().max_element();
+        let delta_t =
+            3.0 * (gamma(3) * max_e * max_zt + delta_e * max_zt + delta_z * max_e) * inv_det.abs();
+        if t <= delta_t {
+            return None;
+        }
+        Some(RawHit { b, t })
+    }
+
+    fn uvs(&self) -> [Vec2; 3] {
+        match &self.mesh.uv {
+            Some(uv) => [uv[self.v[0] as usize], uv[self.v[1] as usize], uv[self.v[2] as usize]],
+            None => [Vec2::new(0.0, 0.0), Vec2::new(1.0, 0.0), Vec2::new(1.0, 1.0)],
+        }
+    }
+
+    /// Nearest hit; `test_alpha` applies the constant-zero alpha mask.
+    pub fn intersect_with(&self, ray: &Ray, test_alpha: bool) -> Option<(f32, SurfaceInteraction)> {
+        let h = self.raw_hit(ray)?;
+        let mesh = &*self.mesh;
+        if test_alpha && mesh.alpha == AlphaMask::Zero {
+            return None;
+        }
+        let (p0, p1, p2) = self.points();
+        let [b0, b1, b2] = h.b;
+        let uv = self.uvs();
+        // Partial derivatives, or any frame around the normal for degenerate uvs.
+        let (duv02, duv12) = (uv[0] - uv[2], uv[1] - uv[2]);
+        let (dp02, dp12) = (p0 - p2, p1 - p2);
+        let determinant = duv02.x * duv12.y - duv02.y * duv12.x;
+        let degenerate_uv = determinant.abs() < 1e-8;
+        let (mut dpdu, mut dpdv) = (Vec3::ZERO, Vec3::ZERO);
+        if !degenerate_uv {
+            let invdet = 1.0 / determinant;
+            dpdu = (duv12.y * dp02 - duv02.y * dp12) * invdet;
+            dpdv = (-duv12.x * dp02 + duv02.x * dp12) * invdet;
+        }
+        if degenerate_uv || dpdu.cross(dpdv).length_squared() == 0.0 {
+            (dpdu, dpdv) = coordinate_system((p2 - p0).cross(p1 - p0).normalize());
+        }
+        let abs_sum = (b0 * p0).abs() + (b1 * p1).abs() + (b2 * p2).abs();
+        let p_error = gamma(7) * abs_sum;
+        let p_hit = b0 * p0 + b1 * p1 + b2 * p2;
+        let uv_hit = b0 * uv[0] + b1 * uv[1] + b2 * uv[2];
+        let flip = mesh.reverse_orientation ^ mesh.transform_swaps_handedness;
+        let mut si = SurfaceInteraction::new(
+            p_hit,
+            p_error,
+            uv_hit,
+            -ray.d.normalize(),
+            dpdu,
+            dpdv,
+            Vec3::ZERO,
+            Vec3::ZERO,
+            ray.time,
+            false,
+        );
+        let ng = dp02.cross(dp12).normalize();
+        si.it.n = ng;
+        si.shading.n = ng;
+        if mesh.n.is_some() || mesh.s.is_some() {
+            self.shading_geometry(&mut si, h.b, &uv, flip);
+        }
+        if mesh.n.is_some() {
+            si.it.n = face_forward(si.it.n, si.shading.n);
+        } else if flip {
+            si.it.n = -si.it.n;
+            si.shading.n = si.it.n;
+        }
+        Some((h.t, si))
+    }
+
+    /// Interpolated normals and tangents (pbrt-v3's `SetShadingGeometry`
+    /// with authoritative orientation, including its orientation flip).
+    fn shading_geometry(
+        &self,
+        si: &mut SurfaceInteraction,
+        b: [f32; 3],
+        uv: &[Vec2; 3],
+        flip: bool,
+    ) {
+        let mesh = &*self.mesh;
+        let [i0, i1, i2] = self.v.map(|i| i as usize);
+        let ns = match &mesh.n {
+            Some(n) => {
+                let ns = b[0] * n[i0] + b[1] * n[i1] + b[2] * n[i2];
+                if ns.length_squared() > 0.0 {
+                    ns.normalize()
+                } else {
+                    si.it.n
+                }
+            }
+            None => si.it.n,
+        };
+        let mut ss = match &mesh.s {
+            Some(s) => {
+                let ss = b[0] * s[i0] + b[1] * s[i1] + b[2] * s[i2];
+                if ss.length_squared() > 0.0 {
+                    ss.normalize()
+                } else {
+                    si.dpdu.normalize()
+                }
+            }
+            None => si.dpdu.normalize(),
+        };
+        let mut ts = ss.cross(ns);
+        if ts.length_squared() > 0.0 {
+            ts = ts.normalize();
+            ss = ts.cross(ns);
+        } else {
+            (ss, ts) = coordinate_system(ns);
+        }
+        let (mut dndu, mut dndv) = (Vec3::ZERO, Vec3::ZERO);
+        if let Some(n) = &mesh.n {
+            let (duv02, duv12) = (uv[0] - uv[2], uv[1] - uv[2]);
+            let (dn1, dn2) = (n[i0] - n[i2], n[i1] - n[i2]);
+            let determinant = duv02.x * duv12.y - duv02.y * duv12.x;
+            if determinant.abs() >= 1e-8 {
+                let inv = 1.0 / determinant;
+                dndu = (duv12.y * dn1 - duv02.y * dn2) * inv;
+                dndv = (-duv12.x * dn1 + duv02.x * dn2) * inv;
+            }
+        }
+        let mut sn = ss.cross(ts).normalize();
+        if flip {
+            sn = -sn;
+        }
+        si.it.n = face_forward(si.it.n, sn);
+        si.shading = Shading { n: sn, dpdu: ss, dpdv: ts, dndu, dndv };
+    }
+
+    /// Nearest hit, with the constant-zero alpha mask applied.
+    pub fn intersect(&self, ray: &Ray) -> Option<(f32, SurfaceInteraction)> {
+        self.intersect_with(ray, true)
+    }
+
+    /// Whether the ray hits (shadow rays: both alpha masks apply).
+    pub fn intersect_p(&self, ray: &Ray) -> bool {
+        if self.raw_hit(ray).is_none() {
+            return false;
+        }
+        !(self.mesh.alpha == AlphaMask::Zero || self.mesh.shadow_alpha == AlphaMask::Zero)
+    }
+
+    /// Area.
+    pub fn area(&self) -> f32 {
+        let (p0, p1, p2) = self.points();
+        0.5 * (p1 - p0).cross(p2 - p0).length()
+    }
+
+    /// A uniform point and its area density.
+    pub fn sample_area(&self, u: Vec2) -> (Interaction, f32) {
+        let b = uniform_sample_triangle(u);
+        let (p0, p1, p2) = self.points();
+        let b2 = 1.0 - b.x - b.y;
+        let p = b.x * p0 + b.y * p1 + b2 * p2;
+        let mut n = match &self.mesh.n {
+            Some(n) => (b.x * n[self.v[0] as usize]
+                + b.y * n[self.v[1] as usize]
+                + b2 * n[self.v[2] as usize])
+                .normalize(),
+            None => (p1 - p0).cross(p2 - p0).normalize(),
+        };
+        if self.mesh.reverse_orientation {
+            n = -n;
+        }
+        let abs_sum = (b.x * p0).abs() + (b.y * p1).abs() + (b2 * p2).abs();
+        (Interaction { p, p_error: gamma(6) * abs_sum, n, time: 0.0 }, 1.0 / self.area())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use farm_common::rng::Rng;
+
+    fn octahedron(scale: f32, offset: Vec3) -> Vec<Triangle> {
+        let p: Vec<Vec3> = [Vec3::X, -Vec3::X, Vec3::Y, -Vec3::Y, Vec3::Z, -Vec3::Z]
+            .iter()
+            .map(|&v| v * scale + offset)
+            .collect();
+        let mesh = Arc::new(TriangleMesh { p, ..Default::default() });
+        let idx = [
+            [0, 2, 4],
+            [2, 1, 4],
+            [1, 3, 4],
+            [3, 0, 4],
+            [2, 0, 5],
+            [1, 2, 5],
+            [3, 1, 5],
+            [0, 3, 5],
+        ];
+        idx.iter().map(|&v| Triangle { mesh: mesh.clone(), v }).collect()
+    }
+
+    /// Rays aimed exactly at shared edges and vertices of a closed mesh never slip through.
+    #[test]
+    fn watertight_at_edges_and_vertices() {
+        let mut rng = Rng::new(5);
+        for (scale, offset) in [(1.0, Vec3::ZERO), (3.7, Vec3::new(1e3, -250.0, 17.0))] {
+            let tris = octahedron(scale, offset);
+            let p = &tris[0].mesh.p;
+            let edges = [
+                (0, 2),
+                (2, 1),
+                (1, 3),
+                (3, 0),
+                (0, 4),
+                (1, 4),
+                (2, 4),
+                (3, 4),
+                (0, 5),
+                (1, 5),
+                (2, 5),
+                (3, 5),
+            ];
+            for i in 0..20000 {
+                let target = if i % 4 == 0 {
+                    p[(rng.uniform_u32() % 6) as usize]
+                } else {
+                    let (a, b) = edges[(rng.uniform_u32() % 12) as usize];
+                    let s = rng.uniform_f32();
+                    p[a] + s * (p[b] - p[a])
+                };
+                let from_inside = i % 3 == 0;
+                let o = if from_inside {
+                    offset
+                        + 0.2
+                            * scale
+                            * Vec3::new(
+                                rng.uniform_f32() - 0.5,
+                                rng.uniform_f32() - 0.5,
+                                rng.uniform_f32() - 0.5,
+                            )
+                } else {
+                    let w = crate::sampling::uniform_sample_sphere(Vec2::new(
+                        rng.uniform_f32(),
+                        rng.uniform_f32(),
+                    ));
+                    offset + w * scale * 5.0
+                };
+                let ray = Ray::new(o, target - o, 0.0);
+                let n = tris.iter().filter(|t| t.intersect(&ray).is_some()).count();
+                let np = tris.iter().filter(|t| t.intersect_p(&ray)).count();
+                assert_eq!(n, np);
+                if from_inside {
+                    assert!(n >= 1, "ray from inside escaped through {target:?}");
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn barycentric_hit_and_uv_defaults() {
+        let tris = octahedron(1.0, Vec3::ZERO);
+        let r = Ray::new(Vec3::new(0.2, 0.2, 5.0), -Vec3::Z, 0.0);
+        let (t, si) = tris[0].intersect(&r).expect("hit");
+        assert!((t - 4.4).abs() < 1e-5);
+        assert!((si.p() - Vec3::new(0.2, 0.2, 0.6)).length() < 1e-5);
+        assert!((si.n().abs() - Vec3::splat(1.0 / 3f32.sqrt())).length() < 1e-5);
+        assert!(si.uv.x >= 0.0 && si.uv.x <= 1.0 && si.uv.y <= si.uv.x + 1e-6);
+        assert!((tris[0].area() - 3f32.sqrt() / 2.0).abs() < 1e-5);
+    }
+}
