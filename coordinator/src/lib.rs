@@ -1,1 +1,25 @@
+//! The farm's coordinator: parses pbrt-v3 scenes into scene descriptions,
+//! splits the film into 16×16 tile jobs, hands them to workers, merges the
+//! results in tile order and writes the image. The `farm` binary lives here.
+#![warn(missing_docs)]
 
+/// The `farm` command line.
+pub mod cli;
+/// How tiles reach workers.
+pub mod dispatch;
+/// Scene errors.
+pub mod error;
+/// Running one job.
+pub mod job;
+/// Ordered merging of film tiles.
+pub mod merge;
+/// Image error metrics.
+pub mod metrics;
+/// Image files.
+pub mod output;
+/// PLY mesh reader.
+pub mod ply;
+/// The pbrt-v3 scene parser.
+pub mod scene;
+/// Rendering a scene file end to end in this process.
+pub mod submit;

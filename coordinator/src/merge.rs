@@ -1,0 +1,184 @@
+//! The film the coordinator assembles: tiles are added strictly in tile-index
+//! order (early arrivals wait in a buffer), so the float sums — and so the
+//! image's bits — do not depend on how many workers rendered it, how fast
+//! they were, or in what order results came back.
+
+use crate::output::RgbImage;
+use farm_common::film::{FilmGeometry, FilmTile, Pixel};
+use farm_common::ids::TileId;
+use std::collections::BTreeMap;
+
+/// Why a tile result was refused.
+#[derive(Debug, thiserror::Error, PartialEq, Eq)]
+pub enum MergeError {
+    /// The tile id is not in this film's grid.
+    #[error("tile {0} is outside the film's {1} tiles")]
+    UnknownTile(u32, u32),
+    /// The tile's pixel bounds or pixel count disagree with the film's layout.
+    #[error("tile {0} has the wrong dimensions")]
+    WrongDimensions(u32),
+}
+
+/// Whether a tile was used.
+#[derive(Debug, PartialEq, Eq, Clone, Copy)]
+pub enum Accepted {
+    /// New: merged now or buffered until its turn.
+    New,
+    /// Already merged or buffered: ignored.
+    Duplicate,
+}
+
+/// The image being assembled.
+#[derive(Debug)]
+pub struct Film {
+    geometry: FilmGeometry,
+    pixels: Vec<Pixel>,
+    next: u32,
+    pending: BTreeMap<u32, FilmTile>,
+}
+
+impl Film {
+    /// An empty film.
+    pub fn new(geometry: FilmGeometry) -> Self {
+        let n = geometry.cropped_pixel_bounds.area();
+        Film { geometry, pixels: vec![Pixel::default(); n], next: 0, pending: BTreeMap::new() }
+    }
+
+    /// The layout.
+    pub fn geometry(&self) -> &FilmGeometry {
+        &self.geometry
+    }
+
+    /// Tiles merged so far (all tiles before this index are in).
+    pub fn merged(&self) -> u32 {
+        self.next
+    }
+
+    /// Whether `id` is merged or waiting to be.
+    pub fn has(&self, id: TileId) -> bool {
+        id.0 < self.next || self.pending.contains_key(&id.0)
+    }
+
+    /// Whether every tile is in.
+    pub fn is_complete(&self) -> bool {
+        self.next == self.geometry.tile_count()
+    }
+
+    /// Takes one tile result; validates it, ignores duplicates, and merges
+    /// every tile whose turn has come.
+    pub fn accept(&mut self, id: TileId, tile: FilmTile) -> Result<Accepted, MergeError> {
+        let count = self.geometry.tile_count();
+        if id.0 >= count {
+            return Err(MergeError::UnknownTile(id.0, count));
+        }
+        let expected = self.geometry.tile_pixel_bounds(id);
+        let expected_len = if expected.is_empty() { 0 } else { expected.area() };
+        if (!expected.is_empty() && tile.pixel_bounds != expected)
+            || tile.pixels.len() != expected_len
+        {
+            return Err(MergeError::WrongDimensions(id.0));
+        }
+        if self.has(id) {
+            return Ok(Accepted::Duplicate);
+        }
+        self.pending.insert(id.0, tile);
+        while let Some(t) = self.pending.remove(&self.next) {
+            self.merge(&t);
+            self.next += 1;
+        }
+        Ok(Accepted::New)
+    }
+
+    fn merge(&mut self, tile: &FilmTile) {
+        let fb = self.geometry.cropped_pixel_bounds;
+        let overlap = fb.intersect(&tile.pixel_bounds);
+        for p in overlap.iter() {
+            let src = tile.pixels[tile.pixel_bounds.offset(p)];
+            let dst = &mut self.pixels[fb.offset(p)];
+            for c in 0..3 {
+                dst.contrib[c] += src.contrib[c];
+            }
+            dst.weight += src.weight;
+        }
+    }
+
+    /// The image: weighted sums divided by weights, clamped at zero, times
+    /// the film's `scale` (pbrt-v3 `Film::WriteImage`).
+    pub fn image(&self) -> RgbImage {
+        let b = self.geometry.cropped_pixel_bounds;
+        let scale = self.geometry.scale;
+        let pixels = self
+            .pixels
+            .iter()
+            .map(|p| {
+                let mut rgb = p.contrib;
+                if p.weight != 0.0 {
+                    let inv = 1.0 / p.weight;
+                    rgb = rgb.map(|v| (v * inv).max(0.0));
+                }
+                rgb.map(|v| v * scale)
+            })
+            .collect();
+        RgbImage { width: b.width() as usize, height: b.height() as usize, pixels }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use farm_common::geometry::{Bounds2i, Point2i, Vec2};
+    use farm_common::Spectrum;
+
+    fn film() -> FilmGeometry {
+        let b = Bounds2i::new(Point2i::new(0, 0), Point2i::new(40, 20));
+        FilmGeometry::new(
+            Point2i::new(40, 20),
+            b,
+            Vec2::splat(1.5),
+            1.0,
+            f32::INFINITY,
+            "x.exr".into(),
+            35.0,
+        )
+    }
+
+    fn tile(g: &FilmGeometry, id: u32) -> FilmTile {
+        let mut t = FilmTile::new(g.tile_pixel_bounds(TileId(id)));
+        for p in t.pixel_bounds.iter() {
+            let v = 0.1 + (p.x * 7 + p.y * 3 + id as i32) as f32 * 1e-3;
+            t.add(p, Spectrum::new(v, 2.0 * v, 1.0 / 3.0), 0.7);
+        }
+        t
+    }
+
+    #[test]
+    fn arrival_order_does_not_change_a_bit() {
+        let g = film();
+        let n = g.tile_count();
+        let mut a = Film::new(g.clone());
+        for i in 0..n {
+            a.accept(TileId(i), tile(&g, i)).unwrap();
+        }
+        let mut b = Film::new(g.clone());
+        for i in (0..n).rev() {
+            assert_eq!(b.accept(TileId(i), tile(&g, i)).unwrap(), Accepted::New);
+            assert_eq!(b.accept(TileId(i), tile(&g, i)).unwrap(), Accepted::Duplicate);
+        }
+        assert!(a.is_complete() && b.is_complete());
+        assert_eq!(a.image(), b.image());
+    }
+
+    #[test]
+    fn bad_tiles_are_refused() {
+        let g = film();
+        let mut f = Film::new(g.clone());
+        assert_eq!(
+            f.accept(TileId(999), tile(&g, 0)),
+            Err(MergeError::UnknownTile(999, g.tile_count()))
+        );
+        assert_eq!(f.accept(TileId(1), tile(&g, 0)), Err(MergeError::WrongDimensions(1)));
+        let mut t = tile(&g, 0);
+        t.pixels.pop();
+        assert_eq!(f.accept(TileId(0), t), Err(MergeError::WrongDimensions(0)));
+    }
+}

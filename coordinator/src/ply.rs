@@ -1,0 +1,432 @@
+//! A reader for the PLY meshes of `Shape "plymesh"` (pbrt-v3
+//! `shapes/plymesh.cpp`, which uses rply): ascii, binary little- and
+//! big-endian; vertex positions, optional normals and texture coordinates;
+//! triangle and quad faces, quads split as pbrt-v3 splits them. Elements and
+//! properties it does not use are skipped.
+
+use std::fmt;
+
+/// The mesh read from a PLY file.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct PlyMesh {
+    /// Vertex positions.
+    pub p: Vec<[f32; 3]>,
+    /// Per-vertex normals, if the file has `nx ny nz`.
+    pub n: Option<Vec<[f32; 3]>>,
+    /// Per-vertex texture coordinates (`u v`, `s t`, `texture_u texture_v`
+    /// or `texture_s texture_t`).
+    pub uv: Option<Vec<[f32; 2]>>,
+    /// Triangle vertex indices, three per triangle.
+    pub indices: Vec<i32>,
+    /// pbrt-v3's warnings (faces that are neither triangles nor quads).
+    pub warnings: Vec<String>,
+}
+
+/// What is wrong with a PLY file.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct PlyError(pub String);
+
+impl fmt::Display for PlyError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(&self.0)
+    }
+}
+
+impl std::error::Error for PlyError {}
+
+type Result<T> = std::result::Result<T, PlyError>;
+
+fn err<T>(msg: impl Into<String>) -> Result<T> {
+    Err(PlyError(msg.into()))
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Scalar {
+    I8,
+    U8,
+    I16,
+    U16,
+    I32,
+    U32,
+    F32,
+    F64,
+}
+
+impl Scalar {
+    fn parse(s: &str) -> Result<Scalar> {
+        Ok(match s {
+            "char" | "int8" => Scalar::I8,
+            "uchar" | "uint8" => Scalar::U8,
+            "short" | "int16" => Scalar::I16,
+            "ushort" | "uint16" => Scalar::U16,
+            "int" | "int32" => Scalar::I32,
+            "uint" | "uint32" => Scalar::U32,
+            "float" | "float32" => Scalar::F32,
+            "double" | "float64" => Scalar::F64,
+            _ => return err(format!("unknown property type \"{s}\" (expected char, uchar, short, ushort, int, uint, float, double or their sized names)")),
+        })
+    }
+
+    fn size(self) -> usize {
+        match self {
+            Scalar::I8 | Scalar::U8 => 1,
+            Scalar::I16 | Scalar::U16 => 2,
+            Scalar::I32 | Scalar::U32 | Scalar::F32 => 4,
+            Scalar::F64 => 8,
+        }
+    }
+}
+
+#[derive(Debug)]
+struct Property {
+    name: String,
+    /// `Some(count type)` for list properties.
+    list: Option<Scalar>,
+    ty: Scalar,
+}
+
+#[derive(Debug)]
+struct Element {
+    name: String,
+    count: usize,
+    props: Vec<Property>,
+}
+
+#[derive(Clone, Copy, PartialEq, Eq)]
+enum Format {
+    Ascii,
+    Little,
+    Big,
+}
+
+/// Reads a PLY file's bytes.
+pub fn parse(data: &[u8]) -> Result<PlyMesh> {
+    let (format, elements, body) = header(data)?;
+    let mut body = Body { data: body, pos: 0, format };
+    let vertex_count = elements.iter().find(|e| e.name == "vertex").map_or(0, |e| e.count);
+    let face_count = elements.iter().find(|e| e.name == "face").map_or(0, |e| e.count);
+    if vertex_count == 0 || face_count == 0 {
+        return err("no face/vertex elements found (expected \"element vertex N\" and \"element face M\" with N, M > 0)");
+    }
+    let mut mesh = PlyMesh::default();
+    let mut bad_faces = std::collections::BTreeMap::<usize, usize>::new();
+    for e in &elements {
+        match e.name.as_str() {
+            "vertex" => read_vertices(e, &mut body, &mut mesh)?,
+            "face" => read_faces(e, &mut body, vertex_count, &mut mesh, &mut bad_faces)?,
+            _ => {
+                for i in 0..e.count {
+                    for p in &e.props {
+                        body.skip_property(p).map_err(|m| in_element(m, e, i))?;
+                    }
+                }
+            }
+        }
+    }
+    for (n, count) in bad_faces {
+        mesh.warnings.push(format!(
+            "plymesh: Ignoring {count} face(s) with {n} vertices (only triangles and quads are supported!)"
+        ));
+    }
+    Ok(mesh)
+}
+
+fn in_element(e: PlyError, el: &Element, i: usize) -> PlyError {
+    PlyError(format!("element \"{}\" item {} of {}: {}", el.name, i, el.count, e.0))
+}
+
+fn header(data: &[u8]) -> Result<(Format, Vec<Element>, &[u8])> {
+    let mut pos = 0;
+    let mut next_line = || -> Option<&[u8]> {
+        if pos >= data.len() {
+            return None;
+        }
+        let rest = &data[pos..];
+        let end = rest.iter().position(|&b| b == b'\n').unwrap_or(rest.len());
+        pos += (end + 1).min(rest.len());
+        let line = &rest[..end];
+        Some(line.strip_suffix(b"\r").unwrap_or(line))
+    };
+    if next_line() != Some(b"ply".as_slice()) {
+        return err("first line is not \"ply\" (expected a PLY header)");
+    }
+    let mut format = None;
+    let mut elements: Vec<Element> = Vec::new();
+    loop {
+        let Some(line) = next_line() else {
+            return err("header ends before \"end_header\"");
+        };
+        let line = String::from_utf8_lossy(line);
+        let words: Vec<&str> = line.split_whitespace().collect();
+        match words.as_slice() {
+            ["end_header"] => break,
+            [] | ["comment", ..] | ["obj_info", ..] => {}
+            ["format", f, _version] => {
+                format = Some(match *f {
+                    "ascii" => Format::Ascii,
+                    "binary_little_endian" => Format::Little,
+                    "binary_big_endian" => Format::Big,
+                    _ => return err(format!("unknown format \"{f}\" (expected ascii, binary_little_endian or binary_big_endian)")),
+                })
+            }
+            ["element", name, count] => {
+                let Ok(count) = count.parse() else { return err(format!("bad element count \"{count}\"")) };
+                elements.push(Element { name: name.to_string(), count, props: Vec::new() });
+            }
+            ["property", "list", count_ty, ty, name] => {
+                let Some(e) = elements.last_mut() else { return err("property before any element") };
+                e.props.push(Property { name: name.to_string(), list: Some(Scalar::parse(count_ty)?), ty: Scalar::parse(ty)? });
+            }
+            ["property", ty, name] => {
+                let Some(e) = elements.last_mut() else { return err("property before any element") };
+                e.props.push(Property { name: name.to_string(), list: None, ty: Scalar::parse(ty)? });
+            }
+            _ => return err(format!("unexpected header line \"{line}\"")),
+        }
+    }
+    let Some(format) = format else {
+        return err("no \"format\" line in the header");
+    };
+    Ok((format, elements, &data[pos.min(data.len())..]))
+}
+
+struct Body<'a> {
+    data: &'a [u8],
+    pos: usize,
+    format: Format,
+}
+
+impl Body<'_> {
+    fn read(&mut self, ty: Scalar) -> Result<f64> {
+        if self.format == Format::Ascii {
+            return self.read_ascii();
+        }
+        let n = ty.size();
+        let Some(b) = self.data.get(self.pos..self.pos + n) else {
+            return err(format!(
+                "file is truncated (expected {n} more bytes at body offset {})",
+                self.pos
+            ));
+        };
+        self.pos += n;
+        let mut a = [0u8; 8];
+        a[..n].copy_from_slice(b);
+        if self.format == Format::Big {
+            a[..n].reverse();
+        }
+        Ok(match ty {
+            Scalar::I8 => f64::from(a[0] as i8),
+            Scalar::U8 => f64::from(a[0]),
+            Scalar::I16 => f64::from(i16::from_le_bytes([a[0], a[1]])),
+            Scalar::U16 => f64::from(u16::from_le_bytes([a[0], a[1]])),
+            Scalar::I32 => f64::from(i32::from_le_bytes([a[0], a[1], a[2], a[3]])),
+            Scalar::U32 => f64::from(u32::from_le_bytes([a[0], a[1], a[2], a[3]])),
+            Scalar::F32 => f64::from(f32::from_le_bytes([a[0], a[1], a[2], a[3]])),
+            Scalar::F64 => f64::from_le_bytes(a),
+        })
+    }
+
+    fn read_ascii(&mut self) -> Result<f64> {
+        let d = self.data;
+        while self.pos < d.len() && d[self.pos].is_ascii_whitespace() {
+            self.pos += 1;
+        }
+        let start = self.pos;
+        while self.pos < d.len() && !d[self.pos].is_ascii_whitespace() {
+            self.pos += 1;
+        }
+        if start == self.pos {
+            return err("file is truncated (expected another number)");
+        }
+        let word = std::str::from_utf8(&d[start..self.pos]).unwrap_or("?");
+        match word.parse::<f64>() {
+            Ok(v) => Ok(v),
+            Err(_) => err(format!("\"{word}\" is not a number")),
+        }
+    }
+
+    fn read_count(&mut self, ty: Scalar) -> Result<usize> {
+        let n = self.read(ty)?;
+        if !(0.0..=1e9).contains(&n) || n.fract() != 0.0 {
+            return err(format!("bad list length {n}"));
+        }
+        Ok(n as usize)
+    }
+
+    fn skip_property(&mut self, p: &Property) -> Result<()> {
+        let n = match p.list {
+            Some(c) => self.read_count(c)?,
+            None => 1,
+        };
+        for _ in 0..n {
+            self.read(p.ty)?;
+        }
+        Ok(())
+    }
+}
+
+fn read_vertices(e: &Element, body: &mut Body<'_>, mesh: &mut PlyMesh) -> Result<()> {
+    let find = |name: &str| e.props.iter().position(|p| p.name == name && p.list.is_none());
+    let (Some(x), Some(y), Some(z)) = (find("x"), find("y"), find("z")) else {
+        return err("vertex coordinate property not found (expected x, y and z)");
+    };
+    let normal = match (find("nx"), find("ny"), find("nz")) {
+        (Some(a), Some(b), Some(c)) => Some([a, b, c]),
+        _ => None,
+    };
+    let uv = [("u", "v"), ("s", "t"), ("texture_u", "texture_v"), ("texture_s", "texture_t")]
+        .iter()
+        .find_map(|(u, v)| Some([find(u)?, find(v)?]));
+    mesh.p.reserve(e.count);
+    let mut ns = normal.map(|_| Vec::with_capacity(e.count));
+    let mut uvs = uv.map(|_| Vec::with_capacity(e.count));
+    let mut vals = vec![0.0f32; e.props.len()];
+    for i in 0..e.count {
+        for (j, p) in e.props.iter().enumerate() {
+            if p.list.is_some() {
+                body.skip_property(p).map_err(|m| in_element(m, e, i))?;
+            } else {
+                vals[j] = body.read(p.ty).map_err(|m| in_element(m, e, i))? as f32;
+            }
+        }
+        mesh.p.push([vals[x], vals[y], vals[z]]);
+        if let (Some(ns), Some([a, b, c])) = (ns.as_mut(), normal) {
+            ns.push([vals[a], vals[b], vals[c]]);
+        }
+        if let (Some(uvs), Some([a, b])) = (uvs.as_mut(), uv) {
+            uvs.push([vals[a], vals[b]]);
+        }
+    }
+    mesh.n = ns;
+    mesh.uv = uvs;
+    Ok(())
+}
+
+fn read_faces(
+    e: &Element,
+    body: &mut Body<'_>,
+    vertex_count: usize,
+    mesh: &mut PlyMesh,
+    bad_faces: &mut std::collections::BTreeMap<usize, usize>,
+) -> Result<()> {
+    let Some(vi) = e
+        .props
+        .iter()
+        .position(|p| p.list.is_some() && (p.name == "vertex_indices" || p.name == "vertex_index"))
+    else {
+        return err("face element has no \"vertex_indices\" list property");
+    };
+    mesh.indices.reserve(e.count * 3);
+    let mut face = [0i32; 4];
+    for i in 0..e.count {
+        for (j, p) in e.props.iter().enumerate() {
+            if j != vi {
+                body.skip_property(p).map_err(|m| in_element(m, e, i))?;
+                continue;
+            }
+            let count_ty = p.list.unwrap_or(Scalar::U8);
+            let n = body.read_count(count_ty).map_err(|m| in_element(m, e, i))?;
+            let mut filled = 0;
+            for _ in 0..n {
+                let v = body.read(p.ty).map_err(|m| in_element(m, e, i))?;
+                if n != 3 && n != 4 {
+                    continue;
+                }
+                let v = v as i32;
+                if v < 0 || v as usize >= vertex_count {
+                    return Err(in_element(
+                        PlyError(format!(
+                            "vertex reference {v} is out of bounds (expected 0..{vertex_count})"
+                        )),
+                        e,
+                        i,
+                    ));
+                }
+                face[filled] = v;
+                filled += 1;
+            }
+            match n {
+                3 => mesh.indices.extend_from_slice(&face[..3]),
+                // pbrt-v3 splits a quad into (0, 1, 2) and (3, 0, 2).
+                4 => mesh
+                    .indices
+                    .extend_from_slice(&[face[0], face[1], face[2], face[3], face[0], face[2]]),
+                _ => *bad_faces.entry(n).or_default() += 1,
+            }
+        }
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const ASCII: &str = "ply\nformat ascii 1.0\ncomment hi\nelement vertex 4\nproperty float x\nproperty float y\n\
+property float z\nproperty float nx\nproperty float ny\nproperty float nz\nproperty float s\nproperty float t\n\
+element face 2\nproperty list uchar int vertex_indices\nelement edge 1\nproperty int a\nend_header\n\
+0 0 0 0 0 1 0 0\n1 0 0 0 0 1 1 0\n1 1 0 0 0 1 1 1\n0 1 0 0 0 1 0 1\n4 0 1 2 3\n3 0 2 1\n7\n";
+
+    #[test]
+    fn ascii_with_normals_uv_and_quads() {
+        let m = parse(ASCII.as_bytes()).unwrap();
+        assert_eq!(m.p.len(), 4);
+        assert_eq!(m.p[2], [1.0, 1.0, 0.0]);
+        assert_eq!(m.n.as_ref().unwrap()[3], [0.0, 0.0, 1.0]);
+        assert_eq!(m.uv.as_ref().unwrap()[1], [1.0, 0.0]);
+        assert_eq!(m.indices, vec![0, 1, 2, 3, 0, 2, 0, 2, 1]);
+    }
+
+    fn binary(big: bool, faces: &[&[u32]], truncate: usize) -> Vec<u8> {
+        let fmt = if big { "binary_big_endian" } else { "binary_little_endian" };
+        let mut d = format!(
+            "ply\nformat {fmt} 1.0\nelement vertex 3\nproperty double x\nproperty float y\nproperty float z\n\
+property uchar flags\nelement face {}\nproperty uchar junk\nproperty list ushort uint vertex_index\nend_header\n",
+            faces.len()
+        )
+        .into_bytes();
+        for i in 0..3 {
+            let x = i as f64;
+            d.extend(if big { x.to_be_bytes() } else { x.to_le_bytes() });
+            for v in [2.0f32 * i as f32, -1.0] {
+                d.extend(if big { v.to_be_bytes() } else { v.to_le_bytes() });
+            }
+            d.push(9);
+        }
+        for f in faces {
+            d.push(0);
+            let n = f.len() as u16;
+            d.extend(if big { n.to_be_bytes() } else { n.to_le_bytes() });
+            for &v in *f {
+                d.extend(if big { v.to_be_bytes() } else { v.to_le_bytes() });
+            }
+        }
+        d.truncate(d.len() - truncate);
+        d
+    }
+
+    #[test]
+    fn binary_both_endians() {
+        for big in [false, true] {
+            let m = parse(&binary(big, &[&[0, 1, 2], &[2, 1, 0, 1, 2]], 0)).unwrap();
+            assert_eq!(m.p, vec![[0.0, 0.0, -1.0], [1.0, 2.0, -1.0], [2.0, 4.0, -1.0]]);
+            assert_eq!(m.indices, vec![0, 1, 2]);
+            assert_eq!(m.warnings.len(), 1);
+            assert!(m.n.is_none() && m.uv.is_none());
+        }
+    }
+
+    #[test]
+    fn truncated_and_malformed_are_errors() {
+        let e = parse(&binary(false, &[&[0, 1, 2]], 2)).unwrap_err();
+        assert!(e.0.contains("truncated"), "{e}");
+        let e = parse(&binary(false, &[&[0, 1, 7]], 0)).unwrap_err();
+        assert!(e.0.contains("out of bounds"), "{e}");
+        assert!(parse(b"ply\nformat ascii 1.0\n").is_err());
+        assert!(parse(b"PLY\n").is_err());
+        assert!(parse(
+            b"ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nend_header\n0\n"
+        )
+        .is_err());
+    }
+}

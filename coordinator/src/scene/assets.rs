@@ -1,0 +1,126 @@
+//! Files a scene names, read on the parsing host so workers never touch its
+//! file system: image maps and light maps go into
+//! `SceneDescription::assets`, and `plymesh` shapes become `trianglemesh`.
+//!
+//! ```text
+//! Texture "grid" "spectrum" "imagemap" "string filename" "textures/grid.png"
+//! LightSource "infinite" "string mapname" "sky.exr"
+//! Shape "plymesh" "string filename" "geometry/plate1.ply"
+//! ```
+
+use super::builder::Builder;
+use crate::error::{Result, SceneError};
+use crate::ply;
+use farm_common::scene::{Entity, FileLoc, Param, ParamValue};
+use std::path::{Path, PathBuf};
+
+/// Reads a whole file, with the scene location for the error.
+pub fn read_file(path: &Path, loc: &FileLoc) -> Result<Vec<u8>> {
+    std::fs::read(path).map_err(|source| SceneError::File {
+        loc: loc.clone(),
+        path: path.to_string_lossy().into_owned(),
+        source,
+    })
+}
+
+/// The file named by a string parameter, resolved against `dir`.
+fn string_param(entity: &Entity, name: &str, dir: &Path) -> Option<(PathBuf, FileLoc)> {
+    entity.params.params.iter().find_map(|p| match &p.value {
+        ParamValue::String(v) if p.name == name && !v.is_empty() => {
+            Some((dir.join(&v[0]), p.loc.clone()))
+        }
+        _ => None,
+    })
+}
+
+impl Builder {
+    /// Reads the file named by `"string <param>"` into the assets and
+    /// rewrites the parameter to the asset's key.
+    pub(super) fn load_asset(
+        &mut self,
+        entity: &mut Entity,
+        param: &str,
+        dir: &Path,
+    ) -> Result<()> {
+        let Some((path, loc)) = string_param(entity, param, dir) else {
+            return Ok(());
+        };
+        let key = path.to_string_lossy().into_owned();
+        if !self.scene.assets.contains_key(&key) {
+            let bytes = read_file(&path, &loc)?;
+            self.scene.assets.insert(key.clone(), bytes);
+        }
+        for p in &mut entity.params.params {
+            if p.name == param {
+                if let ParamValue::String(v) = &mut p.value {
+                    v[0].clone_from(&key);
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// Reads a `plymesh`'s file and turns the shape into a `trianglemesh`
+    /// with `P`, `N` (if present), `uv` (if present) and `indices`.
+    pub(super) fn load_plymesh(&mut self, entity: &mut Entity, dir: &Path) -> Result<()> {
+        let Some((path, loc)) = string_param(entity, "filename", dir) else {
+            return Err(SceneError::BadValue {
+                loc: entity.loc.clone(),
+                decl: "string filename".into(),
+                found: "nothing".into(),
+                expected: "the PLY file's name for Shape \"plymesh\"".into(),
+            });
+        };
+        let bytes = read_file(&path, &loc)?;
+        let path_str = path.to_string_lossy().into_owned();
+        let mut mesh = ply::parse(&bytes).map_err(|e| SceneError::BadFile {
+            loc: loc.clone(),
+            kind: "PLY",
+            path: path_str.clone(),
+            what: e.0,
+        })?;
+        for w in std::mem::take(&mut mesh.warnings) {
+            self.warn(&loc, w);
+        }
+        let discard = entity.params.take("discarddegenerateUVs");
+        if let Some(Param { value: ParamValue::Bool(b), .. }) = discard {
+            if b.first() == Some(&true) && mesh.n.is_some() && degenerate_uvs(&mesh) {
+                self.warn(&loc, "Degenerate uv coordinates in triangle mesh.  Discarding all uv.");
+                mesh.uv = None;
+            }
+        }
+        entity.params.take("filename");
+        let at = entity.loc.clone();
+        let mut add = |name: &str, value: ParamValue| {
+            entity.params.add(Param { name: name.to_string(), value, loc: at.clone() });
+        };
+        add("P", ParamValue::Point3(mesh.p));
+        if let Some(n) = mesh.n {
+            add("N", ParamValue::Normal(n));
+        }
+        if let Some(uv) = mesh.uv {
+            add("uv", ParamValue::Point2(uv));
+        }
+        add("indices", ParamValue::Int(mesh.indices));
+        entity.name = "trianglemesh".to_string();
+        Ok(())
+    }
+}
+
+/// pbrt-v3 plymesh's test for uv coordinates that repeat on a
+/// non-degenerate triangle.
+fn degenerate_uvs(mesh: &ply::PlyMesh) -> bool {
+    let Some(uv) = &mesh.uv else { return false };
+    let p = |i: i32| glam::Vec3::from(mesh.p[i as usize]);
+    for t in mesh.indices.chunks_exact(3) {
+        let area = 0.5 * (p(t[0]) - p(t[1])).cross(p(t[2]) - p(t[1])).length();
+        if area < 1e-7 {
+            continue;
+        }
+        let (a, b, c) = (uv[t[0] as usize], uv[t[1] as usize], uv[t[2] as usize]);
+        if a == b || b == c || c == a {
+            return true;
+        }
+    }
+    false
+}

@@ -1,0 +1,108 @@
+//! `farm submit` without a coordinator address: an embedded coordinator and
+//! an in-process worker, joined by the same dispatcher seam the gRPC farm
+//! uses.
+
+use crate::dispatch::LocalDispatcher;
+use crate::error::SceneError;
+use crate::job::{self, JobError, Progress};
+use crate::output::{self, ImageError, ImageMetadata, RgbImage};
+use farm_common::scene::Warning;
+use farm_worker::error::BuildError;
+use farm_worker::integrator::RayStats;
+use farm_worker::{RenderOptions, Renderer};
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+use std::time::Instant;
+
+/// Choices for one render.
+#[derive(Clone, Debug, Default)]
+pub struct SubmitOptions {
+    /// Output file (overrides the scene's `Film "string filename"`).
+    pub output: Option<PathBuf>,
+    /// Samples per pixel (overrides the sampler's `pixelsamples`).
+    pub spp: Option<u32>,
+    /// Render threads (0 = one per core).
+    pub threads: usize,
+}
+
+/// What a finished render produced.
+#[derive(Clone, Debug)]
+pub struct RenderSummary {
+    /// The image.
+    pub image: RgbImage,
+    /// Where it goes.
+    pub output: PathBuf,
+    /// Rays traced.
+    pub stats: RayStats,
+    /// Samples per pixel used.
+    pub spp: u32,
+    /// Seconds to parse, load and build the scene.
+    pub startup_seconds: f64,
+    /// Seconds spent rendering tiles.
+    pub render_seconds: f64,
+    /// The scene's name.
+    pub scene_name: String,
+    /// What was ignored in the scene.
+    pub warnings: Vec<Warning>,
+}
+
+/// Why a render failed.
+#[derive(Debug, thiserror::Error)]
+pub enum SubmitError {
+    /// The scene file is malformed.
+    #[error(transparent)]
+    Scene(#[from] SceneError),
+    /// The scene could not be built.
+    #[error("{0}")]
+    Build(#[from] BuildError),
+    /// Rendering stopped early.
+    #[error(transparent)]
+    Job(#[from] JobError),
+    /// The image could not be written.
+    #[error(transparent)]
+    Image(#[from] ImageError),
+    /// The thread pool could not start.
+    #[error("cannot start render threads: {0}")]
+    Threads(#[from] rayon::ThreadPoolBuildError),
+}
+
+/// Parses, builds and renders `scene` in this process, calling `progress`
+/// after every tile. Nothing is written.
+pub fn render(
+    scene: &Path,
+    opts: &SubmitOptions,
+    progress: impl FnMut(&Progress),
+) -> Result<RenderSummary, SubmitError> {
+    let start = Instant::now();
+    let (desc, mut warnings) = crate::scene::parse_file(scene)?;
+    let (renderer, build_warnings) = Renderer::new(&desc, &RenderOptions { spp: opts.spp })?;
+    warnings.extend(build_warnings);
+    let startup_seconds = start.elapsed().as_secs_f64();
+    let output = opts.output.clone().unwrap_or_else(|| PathBuf::from(&renderer.film.filename));
+    let spp = renderer.samples_per_pixel();
+    let geometry = renderer.film.clone();
+    let dispatcher = LocalDispatcher::new(Arc::new(renderer), opts.threads)?;
+    let t = Instant::now();
+    let (film, stats) = job::run(geometry, &dispatcher, progress)?;
+    Ok(RenderSummary {
+        image: film.image(),
+        output,
+        stats,
+        spp,
+        startup_seconds,
+        render_seconds: t.elapsed().as_secs_f64(),
+        scene_name: desc.name,
+        warnings,
+    })
+}
+
+/// Writes a finished render to its output path.
+pub fn write(summary: &RenderSummary) -> Result<(), SubmitError> {
+    let meta = ImageMetadata {
+        scene: summary.scene_name.clone(),
+        spp: summary.spp,
+        render_seconds: summary.render_seconds as f32,
+    };
+    output::write_image(&summary.output, &summary.image, &meta)?;
+    Ok(())
+}

@@ -1,0 +1,109 @@
+//! The `farm` binary as a user runs it: malformed scenes end with one line
+//! naming file:line:column, exit code 2 and no panic.
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+fn temp_dir(name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("farm-cli-{}-{name}", std::process::id()));
+    std::fs::create_dir_all(&d).expect("temp dir");
+    d
+}
+
+/// Runs `farm submit` on `scene` and returns (exit code, stderr).
+fn submit(scene: &Path) -> (i32, String) {
+    let out = Command::new(env!("CARGO_BIN_EXE_farm"))
+        .args(["submit", "--quiet", "-o"])
+        .arg(scene.with_extension("exr"))
+        .arg(scene)
+        .output()
+        .expect("run farm");
+    (out.status.code().unwrap_or(-1), String::from_utf8_lossy(&out.stderr).into_owned())
+}
+
+fn expect_error(name: &str, scene: &str, extra: &[(&str, &[u8])], want_loc: &str) {
+    let dir = temp_dir(name);
+    for (file, bytes) in extra {
+        std::fs::write(dir.join(file), bytes).expect("write");
+    }
+    let path = dir.join(format!("{name}.pbrt"));
+    std::fs::write(&path, scene).expect("write");
+    let (code, stderr) = submit(&path);
+    assert_eq!(code, 2, "{name}: exit code {code}, stderr: {stderr}");
+    assert!(!stderr.contains("panicked"), "{name}: {stderr}");
+    let lines: Vec<&str> = stderr.lines().filter(|l| !l.trim().is_empty()).collect();
+    assert_eq!(lines.len(), 1, "{name}: expected one line, got: {stderr}");
+    let want = format!("error: {}:{want_loc}:", path.display());
+    assert!(lines[0].starts_with(&want), "{name}: {:?} does not start with {want:?}", lines[0]);
+}
+
+const HEAD: &str = "Camera \"perspective\"\nFilm \"image\" \"integer xresolution\" 8 \"integer yresolution\" 8\nWorldBegin\n";
+
+#[test]
+fn unterminated_string_is_located() {
+    expect_error(
+        "unterminated",
+        &format!("{HEAD}Shape \"sphere\" \"float radius\" [1]\nMaterial \"matte\n"),
+        &[],
+        "5:10",
+    );
+}
+
+#[test]
+fn unknown_directive_is_located() {
+    expect_error(
+        "directive",
+        &format!("{HEAD}  Sphere \"float radius\" 1\nWorldEnd\n"),
+        &[],
+        "4:3",
+    );
+}
+
+#[test]
+fn wrong_parameter_type_is_located() {
+    expect_error(
+        "paramtype",
+        &format!("{HEAD}Shape \"sphere\" \"float radius\" [ \"big\" ]\nWorldEnd\n"),
+        &[],
+        "4:33",
+    );
+}
+
+#[test]
+fn missing_include_is_located() {
+    expect_error(
+        "include",
+        &format!("{HEAD}Include \"nowhere/geometry.pbrt\"\nWorldEnd\n"),
+        &[],
+        "4:1",
+    );
+}
+
+#[test]
+fn truncated_ply_is_located() {
+    let mut ply = b"ply\nformat binary_little_endian 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n".to_vec();
+    ply.extend_from_slice(&[0u8; 20]);
+    expect_error(
+        "ply",
+        &format!("{HEAD}Shape \"plymesh\" \"string filename\" \"cut.ply\"\nWorldEnd\n"),
+        &[("cut.ply", &ply)],
+        "4:17",
+    );
+}
+
+#[test]
+fn renders_the_example_scene_to_exr() {
+    let dir = temp_dir("example");
+    let out = dir.join("example.exr");
+    let scene = Path::new(env!("CARGO_MANIFEST_DIR")).join("../scenes/example.pbrt");
+    let status = Command::new(env!("CARGO_BIN_EXE_farm"))
+        .args(["submit", "--quiet", "--spp", "1", "-o"])
+        .arg(&out)
+        .arg(&scene)
+        .status()
+        .expect("run farm");
+    assert!(status.success());
+    let img = farm_coordinator::output::read_exr(&out).expect("read back");
+    assert_eq!((img.width, img.height), (480, 320));
+    assert!(img.pixels.iter().all(|p| p.iter().all(|v| v.is_finite())));
+}
