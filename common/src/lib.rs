@@ -14,6 +14,8 @@ pub mod geometry;
 pub mod ids;
 /// pbrt-v3's PCG32 random number generator.
 pub mod rng;
+/// Ray counts.
+pub mod stats;
 /// The scene description: entities, parameters and file locations.
 pub mod scene;
 /// RGB spectra.

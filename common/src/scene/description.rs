@@ -207,6 +207,9 @@ pub struct SceneDescription {
     /// Named media.
     pub media: Vec<MediumEntity>,
     /// Files the scene refers to (image maps), by the path string the scene
-    /// used after resolving it against the including file's directory.
+    /// used after resolving it against the including file's directory. Not
+    /// serialized: assets travel separately, content-addressed, so a worker
+    /// that holds one already is not sent it again.
+    #[serde(skip)]
     pub assets: BTreeMap<String, Vec<u8>>,
 }

@@ -1,0 +1,12 @@
+//! Generates the gRPC code from proto/renderfarm/v1/*.proto with the
+//! pure-Rust `protox` compiler, so no system `protoc` is needed.
+
+fn main() -> Result<(), Box<dyn std::error::Error>> {
+    let protos = ["renderfarm/v1/farm.proto"];
+    for p in protos {
+        println!("cargo:rerun-if-changed={p}");
+    }
+    let fds = protox::compile(protos, ["."])?;
+    tonic_prost_build::configure().compile_fds(fds)?;
+    Ok(())
+}

@@ -1,0 +1,89 @@
+//! Film tiles travel as raw little-endian f32 bytes: four per pixel.
+
+use crate::v1;
+use farm_common::film::{FilmTile, Pixel};
+use farm_common::geometry::{Bounds2i, Point2i};
+
+/// Why a film tile from the wire was refused.
+#[derive(Debug, thiserror::Error, PartialEq, Eq)]
+pub enum TileDecodeError {
+    /// The bounds are inverted or absurdly large.
+    #[error("film tile bounds ({x0},{y0})-({x1},{y1}) are invalid")]
+    BadBounds {
+        /// Left.
+        x0: i32,
+        /// Top.
+        y0: i32,
+        /// Right.
+        x1: i32,
+        /// Bottom.
+        y1: i32,
+    },
+    /// The byte count does not match the bounds.
+    #[error("film tile holds {got} bytes where its bounds need {want}")]
+    WrongSize {
+        /// Bytes received.
+        got: usize,
+        /// Bytes the bounds call for.
+        want: usize,
+    },
+}
+
+impl From<&FilmTile> for v1::FilmTile {
+    fn from(t: &FilmTile) -> Self {
+        let mut pixels = Vec::with_capacity(t.pixels.len() * 16);
+        for p in &t.pixels {
+            for v in [p.contrib[0], p.contrib[1], p.contrib[2], p.weight] {
+                pixels.extend_from_slice(&v.to_le_bytes());
+            }
+        }
+        let b = t.pixel_bounds;
+        v1::FilmTile { x0: b.min.x, y0: b.min.y, x1: b.max.x, y1: b.max.y, pixels }
+    }
+}
+
+impl TryFrom<&v1::FilmTile> for FilmTile {
+    type Error = TileDecodeError;
+
+    fn try_from(t: &v1::FilmTile) -> Result<Self, Self::Error> {
+        let bad = TileDecodeError::BadBounds { x0: t.x0, y0: t.y0, x1: t.x1, y1: t.y1 };
+        let (w, h) = (t.x1 as i64 - t.x0 as i64, t.y1 as i64 - t.y0 as i64);
+        if w < 0 || h < 0 || w * h > 1 << 24 {
+            return Err(bad);
+        }
+        let n = (w * h) as usize;
+        if t.pixels.len() != n * 16 {
+            return Err(TileDecodeError::WrongSize { got: t.pixels.len(), want: n * 16 });
+        }
+        let f = |i: usize| f32::from_le_bytes([t.pixels[i], t.pixels[i + 1], t.pixels[i + 2], t.pixels[i + 3]]);
+        let pixels = (0..n)
+            .map(|i| Pixel { contrib: [f(i * 16), f(i * 16 + 4), f(i * 16 + 8)], weight: f(i * 16 + 12) })
+            .collect();
+        let pixel_bounds = Bounds2i::new(Point2i::new(t.x0, t.y0), Point2i::new(t.x1, t.y1));
+        Ok(FilmTile { pixel_bounds, pixels })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use farm_common::Spectrum;
+
+    #[test]
+    fn tiles_round_trip_bit_for_bit() {
+        let mut t = FilmTile::new(Bounds2i::new(Point2i::new(-2, 3), Point2i::new(5, 7)));
+        t.add(Point2i::new(0, 4), Spectrum::new(0.1, f32::MIN_POSITIVE, 1e30), 0.3);
+        let wire = v1::FilmTile::from(&t);
+        assert_eq!(FilmTile::try_from(&wire), Ok(t));
+    }
+
+    #[test]
+    fn wrong_sizes_and_bounds_are_refused() {
+        let t = FilmTile::new(Bounds2i::new(Point2i::new(0, 0), Point2i::new(2, 2)));
+        let mut wire = v1::FilmTile::from(&t);
+        wire.pixels.pop();
+        assert_eq!(FilmTile::try_from(&wire), Err(TileDecodeError::WrongSize { got: 63, want: 64 }));
+        wire.x1 = -5;
+        assert!(matches!(FilmTile::try_from(&wire), Err(TileDecodeError::BadBounds { .. })));
+    }
+}

@@ -1,0 +1,24 @@
+//! The farm's wire protocol, `renderfarm.v1`: the generated messages and
+//! service stubs, and conversions between them and the farm's own types.
+//! Generated types stay inside this crate's `v1` module.
+#![warn(missing_docs)]
+
+/// Generated code for package `renderfarm.v1`.
+#[allow(missing_docs, clippy::all, clippy::pedantic)]
+pub mod v1 {
+    tonic::include_proto!("renderfarm.v1");
+}
+
+/// Conversions between protocol messages and farm types.
+pub mod convert;
+
+/// The protocol version workers and clients must speak. Bump it on any
+/// incompatible change to the .proto files.
+pub const PROTOCOL_VERSION: u32 = 1;
+
+/// Largest message the farm's services accept or send (images, tiles and
+/// blob chunks stay below it).
+pub const MAX_MESSAGE_SIZE: usize = 64 * 1024 * 1024;
+
+/// Size of the pieces blobs are streamed in.
+pub const BLOB_CHUNK_SIZE: usize = 1024 * 1024;
