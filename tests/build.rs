@@ -6,7 +6,8 @@ use std::path::PathBuf;
 fn main() {
     println!("cargo:rerun-if-env-changed=FARM_SHARED");
     let shared = std::env::var_os("FARM_SHARED").map(PathBuf::from).unwrap_or_else(|| {
-        PathBuf::from(std::env::var_os("CARGO_MANIFEST_DIR").unwrap_or_default()).join("../../shared")
+        PathBuf::from(std::env::var_os("CARGO_MANIFEST_DIR").unwrap_or_default())
+            .join("../../shared")
     });
     let readme = shared.join("reference/README.md");
     println!("cargo:rerun-if-changed={}", readme.display());

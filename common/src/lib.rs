@@ -14,12 +14,12 @@ pub mod geometry;
 pub mod ids;
 /// pbrt-v3's PCG32 random number generator.
 pub mod rng;
-/// Ray counts.
-pub mod stats;
 /// The scene description: entities, parameters and file locations.
 pub mod scene;
 /// RGB spectra.
 pub mod spectrum;
+/// Ray counts.
+pub mod stats;
 
 pub use geometry::{Bounds2i, Bounds3f, Point2i, Ray, Transform, Vec2, Vec3};
 pub use spectrum::Spectrum;

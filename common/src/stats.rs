@@ -34,4 +34,3 @@ impl RayStats {
         self.camera_rays + self.shadow_rays + self.secondary_rays
     }
 }
-

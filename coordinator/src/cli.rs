@@ -18,8 +18,72 @@ pub struct Cli {
 /// Subcommands.
 #[derive(Debug, Subcommand)]
 pub enum Command {
-    /// Render a pbrt-v3 scene (in this process, on every core).
+    /// Render a pbrt-v3 scene: on this machine, or on a farm with --coordinator.
     Submit(SubmitArgs),
+    /// Run a coordinator that workers and clients connect to.
+    Coordinator(CoordinatorArgs),
+    /// Render tiles for a coordinator with every core of this machine.
+    Worker(WorkerArgs),
+    /// List a coordinator's jobs and workers.
+    Status(RemoteArgs),
+    /// Cancel a job on a coordinator.
+    Cancel(CancelArgs),
+    /// Exit 0 if the gRPC health service at an address reports SERVING.
+    Health(HealthArgs),
+}
+
+/// Arguments of `farm coordinator`.
+#[derive(Debug, clap::Args)]
+pub struct CoordinatorArgs {
+    /// Address to listen on.
+    #[arg(long, default_value = "0.0.0.0:7878")]
+    pub listen: std::net::SocketAddr,
+    /// Seconds between worker heartbeats; a worker silent for three is lost.
+    #[arg(long, default_value_t = 2.0)]
+    pub heartbeat: f64,
+}
+
+/// Arguments of `farm worker`.
+#[derive(Debug, clap::Args)]
+pub struct WorkerArgs {
+    /// The coordinator, e.g. http://render-host:7878.
+    #[arg(long, env = "FARM_COORDINATOR")]
+    pub coordinator: String,
+    /// Render threads (default: one per core).
+    #[arg(long, default_value_t = 0)]
+    pub threads: usize,
+    /// Name shown in `farm status` (default: the host name).
+    #[arg(long)]
+    pub name: Option<String>,
+    /// Serve the gRPC health service here, for probes.
+    #[arg(long)]
+    pub health_listen: Option<std::net::SocketAddr>,
+}
+
+/// Arguments naming a coordinator.
+#[derive(Debug, clap::Args)]
+pub struct RemoteArgs {
+    /// The coordinator, e.g. http://render-host:7878.
+    #[arg(long, env = "FARM_COORDINATOR")]
+    pub coordinator: String,
+}
+
+/// Arguments of `farm cancel`.
+#[derive(Debug, clap::Args)]
+pub struct CancelArgs {
+    /// The job id (see `farm status`).
+    pub job: u64,
+    /// The coordinator.
+    #[command(flatten)]
+    pub remote: RemoteArgs,
+}
+
+/// Arguments of `farm health`.
+#[derive(Debug, clap::Args)]
+pub struct HealthArgs {
+    /// Address of the gRPC health service.
+    #[arg(long, default_value = "http://127.0.0.1:7878")]
+    pub addr: String,
 }
 
 /// Arguments of `farm submit`.
@@ -39,6 +103,13 @@ pub struct SubmitArgs {
     /// Print nothing but errors.
     #[arg(short, long)]
     pub quiet: bool,
+    /// Render on the farm run by this coordinator (e.g. http://host:7878)
+    /// instead of in this process.
+    #[arg(long, env = "FARM_COORDINATOR")]
+    pub coordinator: Option<String>,
+    /// Job priority on the farm: higher runs first.
+    #[arg(long, default_value_t = 0, allow_hyphen_values = true)]
+    pub priority: i32,
 }
 
 /// Exit code for bad input (scene errors, usage errors).
@@ -47,14 +118,202 @@ pub const EXIT_BAD_INPUT: u8 = 2;
 /// Runs a parsed command line and returns the process exit code.
 pub fn run(cli: Cli) -> ExitCode {
     match cli.command {
+        Command::Submit(args) if args.coordinator.is_some() => block_on(run_remote_submit(args)),
         Command::Submit(args) => run_submit(args),
+        Command::Coordinator(args) => block_on(run_coordinator(args)),
+        Command::Worker(args) => block_on(run_worker(args)),
+        Command::Status(args) => block_on(run_status(args)),
+        Command::Cancel(args) => block_on(run_cancel(args)),
+        Command::Health(args) => block_on(async move {
+            match crate::client::healthy(&args.addr).await {
+                Ok(true) => ExitCode::SUCCESS,
+                Ok(false) => ExitCode::FAILURE,
+                Err(e) => {
+                    eprintln!("error: {e}");
+                    ExitCode::FAILURE
+                }
+            }
+        }),
     }
 }
 
-fn run_submit(args: SubmitArgs) -> ExitCode {
-    let opts = SubmitOptions { output: args.output.clone(), spp: args.spp, threads: args.threads };
+fn block_on(f: impl std::future::Future<Output = ExitCode>) -> ExitCode {
+    match tokio::runtime::Builder::new_multi_thread().enable_all().build() {
+        Ok(rt) => rt.block_on(f),
+        Err(e) => {
+            eprintln!("error: cannot start the async runtime: {e}");
+            ExitCode::FAILURE
+        }
+    }
+}
+
+/// Completes on SIGINT or SIGTERM.
+pub async fn shutdown_signal() {
+    let ctrl_c = async {
+        let _ = tokio::signal::ctrl_c().await;
+    };
+    #[cfg(unix)]
+    let term = async {
+        match tokio::signal::unix::signal(tokio::signal::unix::SignalKind::terminate()) {
+            Ok(mut s) => {
+                s.recv().await;
+            }
+            Err(_) => std::future::pending::<()>().await,
+        }
+    };
+    #[cfg(not(unix))]
+    let term = std::future::pending::<()>();
+    tokio::select! {
+        _ = ctrl_c => {}
+        _ = term => {}
+    }
+}
+
+async fn run_coordinator(args: CoordinatorArgs) -> ExitCode {
+    let listener = match tokio::net::TcpListener::bind(args.listen).await {
+        Ok(l) => l,
+        Err(e) => {
+            eprintln!("error: cannot listen on {}: {e}", args.listen);
+            return ExitCode::from(EXIT_BAD_INPUT);
+        }
+    };
+    let heartbeat = std::time::Duration::from_secs_f64(args.heartbeat.clamp(0.05, 3600.0));
+    eprintln!("coordinator listening on {}", args.listen);
+    match crate::server::serve(
+        listener,
+        crate::server::ServerConfig::with_heartbeat(heartbeat),
+        shutdown_signal(),
+    )
+    .await
+    {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("error: {e}");
+            ExitCode::FAILURE
+        }
+    }
+}
+
+async fn run_worker(args: WorkerArgs) -> ExitCode {
+    let name = args.name.clone().unwrap_or_else(|| {
+        std::fs::read_to_string("/etc/hostname")
+            .ok()
+            .map(|h| h.trim().to_string())
+            .filter(|h| !h.is_empty())
+            .or_else(|| std::env::var("HOSTNAME").ok())
+            .unwrap_or_else(|| "worker".into())
+    });
+    let config = farm_worker::WorkerConfig {
+        coordinator: args.coordinator.clone(),
+        threads: args.threads,
+        name,
+        max_in_flight: 0,
+        health_listen: args.health_listen,
+        reconnect: true,
+    };
+    eprintln!("worker {} rendering for {}", config.name, config.coordinator);
+    match farm_worker::run(config, shutdown_signal()).await {
+        Ok(s) => {
+            eprintln!("worker stopped after {} tiles", s.tiles_rendered);
+            ExitCode::SUCCESS
+        }
+        Err(e) => {
+            eprintln!("error: {e}");
+            ExitCode::FAILURE
+        }
+    }
+}
+
+async fn run_status(args: RemoteArgs) -> ExitCode {
+    match crate::client::status(&args.coordinator).await {
+        Ok(s) => {
+            println!(
+                "{:>6}  {:<28} {:<10} {:>13} {:>8}",
+                "job", "name", "state", "tiles", "priority"
+            );
+            for j in &s.jobs {
+                let tiles = format!("{}/{}", j.tiles_done, j.tiles_total);
+                println!(
+                    "{:>6}  {:<28} {:<10} {:>13} {:>8}",
+                    j.job_id, j.name, j.state, tiles, j.priority
+                );
+            }
+            println!();
+            println!(
+                "{:>6}  {:<28} {:>7} {:>9} {:>10}",
+                "worker", "name", "threads", "in flight", "tiles done"
+            );
+            for w in &s.workers {
+                println!(
+                    "{:>6}  {:<28} {:>7} {:>9} {:>10}",
+                    w.worker_id, w.name, w.threads, w.in_flight, w.tiles_done
+                );
+            }
+            ExitCode::SUCCESS
+        }
+        Err(e) => {
+            eprintln!("error: {e}");
+            ExitCode::FAILURE
+        }
+    }
+}
+
+async fn run_cancel(args: CancelArgs) -> ExitCode {
+    match crate::client::cancel(&args.remote.coordinator, args.job).await {
+        Ok(true) => {
+            println!("job {} cancelled", args.job);
+            ExitCode::SUCCESS
+        }
+        Ok(false) => {
+            eprintln!("error: job {} is not queued or running", args.job);
+            ExitCode::FAILURE
+        }
+        Err(e) => {
+            eprintln!("error: {e}");
+            ExitCode::FAILURE
+        }
+    }
+}
+
+async fn run_remote_submit(args: SubmitArgs) -> ExitCode {
+    let url = args.coordinator.clone().unwrap_or_default();
+    let opts = crate::client::RemoteOptions {
+        output: args.output.clone(),
+        spp: args.spp,
+        priority: args.priority,
+    };
+    let bar = progress_bar(args.quiet);
+    let started = std::time::Instant::now();
+    let result = crate::client::submit(&url, &args.scene, &opts, |job, p| {
+        if bar.length().is_none() {
+            bar.set_length(p.tiles_total as u64);
+        }
+        bar.set_position(p.tiles_done as u64);
+        let secs = started.elapsed().as_secs_f64().max(1e-3);
+        bar.set_message(format!(
+            "job {job}, {} workers, {:.2} Mrays/s",
+            p.workers,
+            p.stats.total_rays() as f64 / secs / 1e6
+        ));
+    })
+    .await;
+    bar.finish_and_clear();
+    match result {
+        Ok(summary) => finish(&args, summary),
+        Err(crate::client::ClientError::Scene(e)) => {
+            eprintln!("error: {e}");
+            ExitCode::from(EXIT_BAD_INPUT)
+        }
+        Err(e) => {
+            eprintln!("error: {e}");
+            ExitCode::FAILURE
+        }
+    }
+}
+
+fn progress_bar(quiet: bool) -> ProgressBar {
     let bar = ProgressBar::with_draw_target(None, ProgressDrawTarget::stderr());
-    if args.quiet {
+    if quiet {
         bar.set_draw_target(ProgressDrawTarget::hidden());
     }
     bar.set_style(
@@ -64,6 +323,12 @@ fn run_submit(args: SubmitArgs) -> ExitCode {
         .unwrap_or_else(|_| ProgressStyle::default_bar())
         .progress_chars("=> "),
     );
+    bar
+}
+
+fn run_submit(args: SubmitArgs) -> ExitCode {
+    let opts = SubmitOptions { output: args.output.clone(), spp: args.spp, threads: args.threads };
+    let bar = progress_bar(args.quiet);
     let started = std::time::Instant::now();
     let result = submit::render(&args.scene, &opts, |p| {
         if bar.length().is_none() {
@@ -74,10 +339,14 @@ fn run_submit(args: SubmitArgs) -> ExitCode {
         bar.set_message(format!("{:.2} Mrays/s", p.stats.total_rays() as f64 / secs / 1e6));
     });
     bar.finish_and_clear();
-    let summary = match result {
-        Ok(s) => s,
-        Err(e) => return fail(&e),
-    };
+    match result {
+        Ok(summary) => finish(&args, summary),
+        Err(e) => fail(&e),
+    }
+}
+
+/// Prints warnings, writes the image and prints the summary line.
+fn finish(args: &SubmitArgs, summary: submit::RenderSummary) -> ExitCode {
     if !args.quiet {
         for w in &summary.warnings {
             eprintln!("{w}");

@@ -5,6 +5,8 @@
 
 /// The `farm` command line.
 pub mod cli;
+/// Talking to a coordinator.
+pub mod client;
 /// How tiles reach workers.
 pub mod dispatch;
 /// Scene errors.
@@ -21,5 +23,9 @@ pub mod output;
 pub mod ply;
 /// The pbrt-v3 scene parser.
 pub mod scene;
+/// The farm scheduler.
+pub mod scheduler;
+/// The coordinator gRPC server.
+pub mod server;
 /// Rendering a scene file end to end in this process.
 pub mod submit;

@@ -2,6 +2,9 @@
 //! scenes and reference images are, and how to render a scene given as text.
 #![warn(missing_docs)]
 
+/// An in-process farm.
+pub mod cluster;
+
 use farm_coordinator::output::RgbImage;
 use farm_coordinator::submit::{self, RenderSummary, SubmitOptions};
 use std::path::{Path, PathBuf};

@@ -5,14 +5,14 @@
 
 use crate::cameras::{self, Camera};
 use crate::error::BuildError;
-use crate::filters;
+use crate::filters::{self, Filter};
 use crate::integrator::{RayStats, Whitted};
 use crate::sampler::{self, Sampler};
 use crate::scene::Scene;
 use farm_common::film::{FilmGeometry, FilmTile};
 use farm_common::geometry::{AnimatedTransform, Bounds2i, DMat4, DVec3, Point2i, Transform, Vec2};
 use farm_common::ids::TileId;
-use farm_common::scene::{Params, SceneDescription, Warning};
+use farm_common::scene::{Entity, Params, SceneDescription, Warning};
 use farm_common::Spectrum;
 
 /// Entries per axis of the precomputed filter table (pbrt-v3's 16).
@@ -23,6 +23,33 @@ const FILTER_TABLE_SIZE: usize = 16;
 pub struct RenderOptions {
     /// Samples per pixel instead of the sampler's `pixelsamples`.
     pub spp: Option<u32>,
+}
+
+/// The film layout (with the radius of the filter actually used), the
+/// filter, and the sampler of a scene. The coordinator calls this too, so it
+/// splits the film into exactly the tiles workers render.
+pub fn film_and_sampler(
+    desc: &SceneDescription,
+    opts: &RenderOptions,
+) -> (FilmGeometry, Filter, Sampler, Vec<Warning>) {
+    let (film, mut warnings) = FilmGeometry::from_description(desc);
+    let filter_entity =
+        if desc.filter.name.is_empty() { Entity::named("box") } else { desc.filter.clone() };
+    let filter = filters::create(&filter_entity, &mut warnings);
+    let r = filter.radius();
+    let film = FilmGeometry::new(
+        film.full_resolution,
+        film.cropped_pixel_bounds,
+        r,
+        film.scale,
+        film.max_sample_luminance,
+        film.filename,
+        film.diagonal,
+    );
+    let sampler_entity =
+        if desc.sampler.name.is_empty() { Entity::named("halton") } else { desc.sampler.clone() };
+    let sampler = sampler::create(&sampler_entity, film.sample_bounds, opts.spp, &mut warnings);
+    (film, filter, sampler, warnings)
 }
 
 /// Everything needed to render any tile of one scene.
@@ -51,16 +78,10 @@ impl Renderer {
         desc: &SceneDescription,
         opts: &RenderOptions,
     ) -> Result<(Renderer, Vec<Warning>), BuildError> {
-        let (film, mut warnings) = FilmGeometry::from_description(desc);
+        let (film, filter, sampler, mut warnings) = film_and_sampler(desc, opts);
         if film.cropped_pixel_bounds.is_empty() {
             return Err(BuildError::EmptyFilm);
         }
-        let filter_entity = if desc.filter.name.is_empty() {
-            farm_common::scene::Entity::named("box")
-        } else {
-            desc.filter.clone()
-        };
-        let filter = filters::create(&filter_entity, &mut warnings);
 
         // Render space: world translated so the camera (at shutter open) is at the origin.
         let wfc = desc.camera.world_from_camera;
@@ -73,18 +94,11 @@ impl Renderer {
         let end = Transform::from_dmat4(render_from_world * wfc.end);
         let render_from_camera = AnimatedTransform::new(start, wfc.start_time, end, wfc.end_time);
         let cam_entity = if desc.camera.entity.name.is_empty() {
-            farm_common::scene::Entity::named("perspective")
+            Entity::named("perspective")
         } else {
             desc.camera.entity.clone()
         };
         let camera = cameras::create(&cam_entity, render_from_camera, &film, &mut warnings);
-
-        let sampler_entity = if desc.sampler.name.is_empty() {
-            farm_common::scene::Entity::named("halton")
-        } else {
-            desc.sampler.clone()
-        };
-        let sampler = sampler::create(&sampler_entity, film.sample_bounds, opts.spp, &mut warnings);
 
         // The integrator: Whitted whatever the file asks for.
         let ip = Params::new(&desc.integrator.params);
@@ -133,7 +147,6 @@ impl Renderer {
                 filter_table[y * FILTER_TABLE_SIZE + x] = filter.evaluate(p);
             }
         }
-        let film = FilmGeometry { filter_radius: r, ..film };
         let renderer = Renderer {
             scene,
             camera,

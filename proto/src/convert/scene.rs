@@ -41,15 +41,19 @@ pub enum SceneDecodeError {
 
 /// The manifest blob and the asset blobs of a scene.
 pub fn encode_scene(desc: &SceneDescription) -> Result<(Blob, Vec<Blob>), SceneDecodeError> {
-    let assets: Vec<(String, Blob)> = desc.assets.iter().map(|(k, v)| (k.clone(), Blob::new(v.clone()))).collect();
+    let assets: Vec<(String, Blob)> =
+        desc.assets.iter().map(|(k, v)| (k.clone(), Blob::new(v.clone()))).collect();
     let refs: Vec<(&str, Hash)> = assets.iter().map(|(k, b)| (k.as_str(), b.hash)).collect();
-    let bytes = postcard::to_stdvec(&(desc, refs)).map_err(|e| SceneDecodeError::Malformed(e.to_string()))?;
+    let bytes = postcard::to_stdvec(&(desc, refs))
+        .map_err(|e| SceneDecodeError::Malformed(e.to_string()))?;
     Ok((Blob::new(bytes), assets.into_iter().map(|(_, b)| b).collect()))
 }
 
 /// The description in a manifest (with no assets yet) and the assets it
 /// needs, by key and hash.
-pub fn decode_manifest(bytes: &[u8]) -> Result<(SceneDescription, Vec<(String, Hash)>), SceneDecodeError> {
+pub fn decode_manifest(
+    bytes: &[u8],
+) -> Result<(SceneDescription, Vec<(String, Hash)>), SceneDecodeError> {
     postcard::from_bytes(bytes).map_err(|e| SceneDecodeError::Malformed(e.to_string()))
 }
 
@@ -89,7 +93,10 @@ mod tests {
         });
         let (manifest, assets) = encode_scene(&desc).unwrap();
         assert_eq!(assets.len(), 1);
-        let back = decode_scene(&manifest.data, |h| (h == &assets[0].hash).then(|| assets[0].data.clone())).unwrap();
+        let back = decode_scene(&manifest.data, |h| {
+            (h == &assets[0].hash).then(|| assets[0].data.clone())
+        })
+        .unwrap();
         assert_eq!(back, desc);
         // The manifest does not carry the asset bytes, and a corrupt asset is refused.
         assert!(decode_scene(&manifest.data, |_| Some(Arc::new(vec![9]))).is_err());

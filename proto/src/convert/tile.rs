@@ -55,9 +55,14 @@ impl TryFrom<&v1::FilmTile> for FilmTile {
         if t.pixels.len() != n * 16 {
             return Err(TileDecodeError::WrongSize { got: t.pixels.len(), want: n * 16 });
         }
-        let f = |i: usize| f32::from_le_bytes([t.pixels[i], t.pixels[i + 1], t.pixels[i + 2], t.pixels[i + 3]]);
+        let f = |i: usize| {
+            f32::from_le_bytes([t.pixels[i], t.pixels[i + 1], t.pixels[i + 2], t.pixels[i + 3]])
+        };
         let pixels = (0..n)
-            .map(|i| Pixel { contrib: [f(i * 16), f(i * 16 + 4), f(i * 16 + 8)], weight: f(i * 16 + 12) })
+            .map(|i| Pixel {
+                contrib: [f(i * 16), f(i * 16 + 4), f(i * 16 + 8)],
+                weight: f(i * 16 + 12),
+            })
             .collect();
         let pixel_bounds = Bounds2i::new(Point2i::new(t.x0, t.y0), Point2i::new(t.x1, t.y1));
         Ok(FilmTile { pixel_bounds, pixels })
@@ -82,7 +87,10 @@ mod tests {
         let t = FilmTile::new(Bounds2i::new(Point2i::new(0, 0), Point2i::new(2, 2)));
         let mut wire = v1::FilmTile::from(&t);
         wire.pixels.pop();
-        assert_eq!(FilmTile::try_from(&wire), Err(TileDecodeError::WrongSize { got: 63, want: 64 }));
+        assert_eq!(
+            FilmTile::try_from(&wire),
+            Err(TileDecodeError::WrongSize { got: 63, want: 64 })
+        );
         wire.x1 = -5;
         assert!(matches!(FilmTile::try_from(&wire), Err(TileDecodeError::BadBounds { .. })));
     }

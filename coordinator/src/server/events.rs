@@ -1,0 +1,246 @@
+//! The coordinator's single event loop and the gRPC [`Outbox`].
+
+use super::ServerConfig;
+use crate::scheduler::{Assignment, JobRow, JobSpec, JobUpdate, Outbox, Scheduler, WorkerRow};
+use farm_common::film::FilmTile;
+use farm_common::ids::{JobId, TileId, WorkerId};
+use farm_common::stats::RayStats;
+use farm_proto::v1::{self, coordinator_message, job_event, tile_result, worker_message};
+use std::collections::HashMap;
+use std::time::Instant;
+use tokio::sync::{mpsc, oneshot};
+use tonic::Status;
+use tracing::warn;
+
+/// Messages to a worker's Work stream.
+pub type WorkerTx = mpsc::UnboundedSender<Result<v1::CoordinatorMessage, Status>>;
+/// Messages to a WatchJob stream.
+pub type WatchTx = mpsc::UnboundedSender<Result<v1::JobEvent, Status>>;
+
+/// Everything the event loop reacts to.
+pub enum Event {
+    /// A worker opened its Work stream.
+    WorkerJoined {
+        /// Its id.
+        id: WorkerId,
+        /// Its name.
+        name: String,
+        /// Its render threads.
+        threads: u32,
+        /// Tiles it can hold.
+        max_in_flight: u32,
+        /// Its outgoing stream.
+        tx: WorkerTx,
+    },
+    /// A message on a worker's stream.
+    FromWorker {
+        /// The worker.
+        id: WorkerId,
+        /// What it said.
+        kind: worker_message::Kind,
+    },
+    /// A worker's stream ended.
+    WorkerGone {
+        /// The worker.
+        id: WorkerId,
+    },
+    /// A client submitted a job.
+    Submit {
+        /// The job.
+        spec: JobSpec,
+        /// Where to send its id.
+        reply: oneshot::Sender<JobId>,
+    },
+    /// A client watches a job.
+    Watch {
+        /// The job.
+        job: JobId,
+        /// Its event stream.
+        tx: WatchTx,
+        /// Whether the job exists.
+        reply: oneshot::Sender<bool>,
+    },
+    /// `farm status`.
+    Status {
+        /// The listing.
+        reply: oneshot::Sender<(Vec<JobRow>, Vec<WorkerRow>)>,
+    },
+    /// `farm cancel`.
+    Cancel {
+        /// The job.
+        job: JobId,
+        /// Whether it was cancelled.
+        reply: oneshot::Sender<bool>,
+    },
+    /// Time passes: find silent workers.
+    Tick,
+    /// Stop: fail unfinished jobs and close every stream.
+    Shutdown,
+}
+
+#[derive(Default)]
+struct GrpcOutbox {
+    workers: HashMap<WorkerId, WorkerTx>,
+    watchers: HashMap<JobId, Vec<WatchTx>>,
+}
+
+fn rpc_stats(s: &RayStats) -> Option<v1::RayStats> {
+    Some(v1::RayStats::from(s))
+}
+
+/// The protocol form of a job update.
+fn job_event(update: &JobUpdate) -> v1::JobEvent {
+    let kind = match update {
+        JobUpdate::Progress { done, total, workers, stats } => {
+            job_event::Kind::Progress(v1::JobProgress {
+                tiles_done: *done,
+                tiles_total: *total,
+                workers_active: *workers,
+                stats: rpc_stats(stats),
+            })
+        }
+        JobUpdate::Finished(f) => {
+            let mut rgb = Vec::with_capacity(f.image.pixels.len() * 12);
+            for p in &f.image.pixels {
+                for c in p {
+                    rgb.extend_from_slice(&c.to_le_bytes());
+                }
+            }
+            job_event::Kind::Image(v1::JobImage {
+                width: f.image.width as u32,
+                height: f.image.height as u32,
+                rgb,
+                spp: f.spp,
+                render_seconds: f.render_seconds,
+                stats: rpc_stats(&f.stats),
+            })
+        }
+        JobUpdate::Failed(m) => job_event::Kind::Failed(v1::JobFailed { message: m.clone() }),
+    };
+    v1::JobEvent { kind: Some(kind) }
+}
+
+impl Outbox for GrpcOutbox {
+    fn assign(&mut self, worker: WorkerId, a: Assignment) {
+        let msg = v1::CoordinatorMessage {
+            kind: Some(coordinator_message::Kind::Assign(v1::TileAssignment {
+                job_id: a.job.0,
+                tile: a.tile.0,
+                attempt: a.attempt,
+                scene_hash: a.scene_hash,
+                spp: a.spp,
+            })),
+        };
+        if let Some(tx) = self.workers.get(&worker) {
+            let _ = tx.send(Ok(msg));
+        }
+    }
+
+    fn cancel(&mut self, worker: WorkerId, job: JobId) {
+        let msg = v1::CoordinatorMessage {
+            kind: Some(coordinator_message::Kind::Cancelled(v1::JobCancelled { job_id: job.0 })),
+        };
+        if let Some(tx) = self.workers.get(&worker) {
+            let _ = tx.send(Ok(msg));
+        }
+    }
+
+    fn disconnect(&mut self, worker: WorkerId) {
+        if let Some(tx) = self.workers.remove(&worker) {
+            let _ =
+                tx.send(Err(Status::deadline_exceeded("no heartbeat from this worker in time")));
+        }
+    }
+
+    fn notify(&mut self, job: JobId, update: JobUpdate) {
+        let final_update = !matches!(update, JobUpdate::Progress { .. });
+        if let Some(list) = self.watchers.get_mut(&job) {
+            let ev = job_event(&update);
+            list.retain(|tx| tx.send(Ok(ev.clone())).is_ok());
+        }
+        if final_update {
+            self.watchers.remove(&job);
+        }
+    }
+}
+
+/// Runs the scheduler until the channel closes or `Shutdown` arrives.
+pub async fn run(mut rx: mpsc::UnboundedReceiver<Event>, config: ServerConfig) {
+    let mut sched = Scheduler::new(config.scheduler.clone());
+    let mut out = GrpcOutbox::default();
+    while let Some(ev) = rx.recv().await {
+        let now = Instant::now();
+        match ev {
+            Event::WorkerJoined { id, name, threads, max_in_flight, tx } => {
+                out.workers.insert(id, tx);
+                sched.worker_joined(id, name, threads, max_in_flight, now, &mut out);
+            }
+            Event::FromWorker { id, kind } => {
+                sched.heard_from(id, now);
+                if let worker_message::Kind::Result(r) = kind {
+                    handle_result(&mut sched, &mut out, id, r);
+                }
+            }
+            Event::WorkerGone { id } => {
+                out.workers.remove(&id);
+                sched.worker_left(id, &mut out);
+            }
+            Event::Submit { spec, reply } => {
+                let id = sched.submit(spec, &mut out);
+                let _ = reply.send(id);
+            }
+            Event::Watch { job, tx, reply } => match sched.snapshot(job) {
+                Some(update) => {
+                    let last = !matches!(update, JobUpdate::Progress { .. });
+                    let _ = tx.send(Ok(job_event(&update)));
+                    if !last {
+                        out.watchers.entry(job).or_default().push(tx);
+                    }
+                    let _ = reply.send(true);
+                }
+                None => {
+                    let _ = reply.send(false);
+                }
+            },
+            Event::Status { reply } => {
+                let _ = reply.send(sched.status());
+            }
+            Event::Cancel { job, reply } => {
+                let _ = reply.send(sched.cancel(job, &mut out));
+            }
+            Event::Tick => sched.tick(now, &mut out),
+            Event::Shutdown => {
+                sched.shutdown(&mut out);
+                out.watchers.clear();
+                out.workers.clear();
+                break;
+            }
+        }
+    }
+}
+
+fn handle_result(sched: &mut Scheduler, out: &mut GrpcOutbox, id: WorkerId, r: v1::TileResult) {
+    let (job, tile) = (JobId(r.job_id), TileId(r.tile));
+    let stats = r.stats.as_ref().map(RayStats::from).unwrap_or_default();
+    match r.outcome {
+        Some(tile_result::Outcome::FilmTile(ft)) => match FilmTile::try_from(&ft) {
+            Ok(t) => sched.tile_done(id, job, tile, t, stats, out),
+            Err(e) => {
+                warn!(worker = id.0, job = job.0, tile = tile.0, error = %e, "malformed film tile refused");
+                sched.tile_failed(id, job, tile, format!("malformed film tile: {e}"), true, out);
+            }
+        },
+        Some(tile_result::Outcome::Failure(f)) => {
+            sched.tile_failed(id, job, tile, f.message, f.retryable, out)
+        }
+        None => {
+            warn!(
+                worker = id.0,
+                job = job.0,
+                tile = tile.0,
+                "tile result without an outcome refused"
+            );
+            sched.tile_failed(id, job, tile, "empty tile result".into(), true, out);
+        }
+    }
+}

@@ -1,0 +1,101 @@
+//! `farm coordinator`: the gRPC front of the scheduler. One event loop owns
+//! the [`Scheduler`]; service handlers only translate messages into events
+//! and replies.
+
+mod blobs;
+mod events;
+mod service;
+
+pub use blobs::{BlobStore, UploadError};
+pub use events::Event;
+
+use crate::scheduler::SchedulerConfig;
+use farm_proto::v1::coordinator_server::CoordinatorServer;
+use farm_proto::MAX_MESSAGE_SIZE;
+use std::future::Future;
+use std::time::Duration;
+use tokio::net::TcpListener;
+use tokio::sync::mpsc;
+use tokio_stream::wrappers::TcpListenerStream;
+
+/// Settings of a coordinator.
+#[derive(Clone, Debug)]
+pub struct ServerConfig {
+    /// How often workers must send a heartbeat; a worker silent for three
+    /// intervals is declared lost.
+    pub heartbeat_interval: Duration,
+    /// Scheduling limits.
+    pub scheduler: SchedulerConfig,
+}
+
+impl Default for ServerConfig {
+    fn default() -> Self {
+        ServerConfig::with_heartbeat(Duration::from_secs(2))
+    }
+}
+
+impl ServerConfig {
+    /// Defaults with the given heartbeat interval (lost after three).
+    pub fn with_heartbeat(heartbeat_interval: Duration) -> Self {
+        ServerConfig {
+            heartbeat_interval,
+            scheduler: SchedulerConfig {
+                worker_timeout: heartbeat_interval * 3,
+                ..Default::default()
+            },
+        }
+    }
+}
+
+/// Why the coordinator stopped.
+#[derive(Debug, thiserror::Error)]
+pub enum ServerError {
+    /// The transport failed.
+    #[error("gRPC server: {0}")]
+    Transport(#[from] tonic::transport::Error),
+}
+
+/// Serves the coordinator on `listener` until `shutdown` completes; then
+/// tells clients of unfinished jobs and stops.
+pub async fn serve(
+    listener: TcpListener,
+    config: ServerConfig,
+    shutdown: impl Future<Output = ()> + Send,
+) -> Result<(), ServerError> {
+    let (events, rx) = mpsc::unbounded_channel();
+    let loop_task = tokio::spawn(events::run(rx, config.clone()));
+    let ticker = {
+        let events = events.clone();
+        let every = config.heartbeat_interval;
+        tokio::spawn(async move {
+            let mut t = tokio::time::interval(every);
+            loop {
+                t.tick().await;
+                if events.send(Event::Tick).is_err() {
+                    break;
+                }
+            }
+        })
+    };
+    let svc = service::CoordinatorService::new(events.clone(), config.heartbeat_interval);
+    let (health, health_service) = tonic_health::server::health_reporter();
+    health.set_service_status("", tonic_health::ServingStatus::Serving).await;
+    let grpc = CoordinatorServer::new(svc)
+        .max_decoding_message_size(MAX_MESSAGE_SIZE)
+        .max_encoding_message_size(MAX_MESSAGE_SIZE);
+    let stop_events = events.clone();
+    let result = tonic::transport::Server::builder()
+        .add_service(health_service)
+        .add_service(grpc)
+        .serve_with_incoming_shutdown(TcpListenerStream::new(listener), async move {
+            shutdown.await;
+            tracing::info!("coordinator shutting down");
+            let _ = stop_events.send(Event::Shutdown);
+        })
+        .await;
+    ticker.abort();
+    let _ = events.send(Event::Shutdown);
+    drop(events);
+    let _ = loop_task.await;
+    result.map_err(ServerError::from)
+}

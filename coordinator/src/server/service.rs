@@ -1,0 +1,258 @@
+//! The `renderfarm.v1.Coordinator` service: checks what arrives from the
+//! network and turns it into scheduler events.
+
+use super::blobs::{chunks, BlobStore};
+use super::events::Event;
+use crate::scheduler::JobSpec;
+use farm_common::ids::{JobId, WorkerId};
+use farm_proto::convert::decode_manifest;
+use farm_proto::v1::{self, coordinator_server::Coordinator, worker_message};
+use farm_proto::PROTOCOL_VERSION;
+use farm_worker::RenderOptions;
+use std::collections::HashMap;
+use std::pin::Pin;
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::{Arc, Mutex};
+use std::time::Duration;
+use tokio::sync::{mpsc, oneshot};
+use tokio_stream::wrappers::UnboundedReceiverStream;
+use tokio_stream::{Stream, StreamExt};
+use tonic::{Request, Response, Status, Streaming};
+use tracing::{info, warn};
+
+type BoxStream<T> = Pin<Box<dyn Stream<Item = Result<T, Status>> + Send>>;
+
+/// The service; cheap to clone.
+#[derive(Clone)]
+pub struct CoordinatorService {
+    events: mpsc::UnboundedSender<Event>,
+    blobs: BlobStore,
+    registered: Arc<Mutex<HashMap<WorkerId, (String, u32)>>>,
+    next_worker: Arc<AtomicU64>,
+    heartbeat: Duration,
+}
+
+impl CoordinatorService {
+    /// A service feeding `events`.
+    pub fn new(events: mpsc::UnboundedSender<Event>, heartbeat: Duration) -> Self {
+        CoordinatorService {
+            events,
+            blobs: BlobStore::default(),
+            registered: Arc::default(),
+            next_worker: Arc::new(AtomicU64::new(1)),
+            heartbeat,
+        }
+    }
+
+    fn send(&self, ev: Event) -> Result<(), Status> {
+        self.events.send(ev).map_err(|_| Status::unavailable("the coordinator is shutting down"))
+    }
+}
+
+fn check_version(v: u32) -> Result<(), Status> {
+    if v != PROTOCOL_VERSION {
+        return Err(Status::failed_precondition(format!(
+            "protocol version {v} is not supported: this coordinator speaks version {PROTOCOL_VERSION}"
+        )));
+    }
+    Ok(())
+}
+
+#[tonic::async_trait]
+impl Coordinator for CoordinatorService {
+    async fn register_worker(
+        &self,
+        req: Request<v1::RegisterWorkerRequest>,
+    ) -> Result<Response<v1::RegisterWorkerResponse>, Status> {
+        let r = req.into_inner();
+        if let Err(e) = check_version(r.protocol_version) {
+            warn!(name = %r.name, version = r.protocol_version, "worker refused: protocol mismatch");
+            return Err(e);
+        }
+        let id = WorkerId(self.next_worker.fetch_add(1, Ordering::Relaxed));
+        info!(worker = id.0, name = %r.name, threads = r.threads, "worker registered");
+        if let Ok(mut m) = self.registered.lock() {
+            m.insert(id, (r.name, r.threads));
+        }
+        Ok(Response::new(v1::RegisterWorkerResponse {
+            worker_id: id.0,
+            heartbeat_interval_ms: self.heartbeat.as_millis() as u32,
+        }))
+    }
+
+    type WorkStream = BoxStream<v1::CoordinatorMessage>;
+
+    async fn work(
+        &self,
+        req: Request<Streaming<v1::WorkerMessage>>,
+    ) -> Result<Response<Self::WorkStream>, Status> {
+        let mut inbound = req.into_inner();
+        let first = inbound
+            .message()
+            .await?
+            .ok_or_else(|| Status::invalid_argument("empty Work stream"))?;
+        let Some(worker_message::Kind::Hello(hello)) = first.kind else {
+            return Err(Status::invalid_argument(
+                "the first message on a Work stream must be Hello",
+            ));
+        };
+        let id = WorkerId(hello.worker_id);
+        let known = self.registered.lock().ok().and_then(|m| m.get(&id).cloned());
+        let Some((name, threads)) = known else {
+            return Err(Status::failed_precondition(
+                "unknown worker id: call RegisterWorker first",
+            ));
+        };
+        let (tx, rx) = mpsc::unbounded_channel();
+        let max_in_flight =
+            if hello.max_in_flight == 0 { 2 * threads.max(1) + 2 } else { hello.max_in_flight };
+        self.send(Event::WorkerJoined { id, name, threads, max_in_flight, tx })?;
+        let events = self.events.clone();
+        tokio::spawn(async move {
+            loop {
+                match inbound.message().await {
+                    Ok(Some(m)) => {
+                        let Some(kind) = m.kind else { continue };
+                        if events.send(Event::FromWorker { id, kind }).is_err() {
+                            break;
+                        }
+                    }
+                    Ok(None) => break,
+                    Err(e) => {
+                        warn!(worker = id.0, error = %e, "worker stream broke");
+                        break;
+                    }
+                }
+            }
+            let _ = events.send(Event::WorkerGone { id });
+        });
+        Ok(Response::new(Box::pin(UnboundedReceiverStream::new(rx))))
+    }
+
+    type FetchBlobStream = BoxStream<v1::BlobChunk>;
+
+    async fn fetch_blob(
+        &self,
+        req: Request<v1::FetchBlobRequest>,
+    ) -> Result<Response<Self::FetchBlobStream>, Status> {
+        let hash = req.into_inner().hash;
+        let data =
+            self.blobs.get(&hash).ok_or_else(|| Status::not_found("no blob with that hash"))?;
+        let parts = chunks(&hash, &data);
+        Ok(Response::new(Box::pin(tokio_stream::iter(parts.into_iter().map(Ok)))))
+    }
+
+    async fn upload_blob(
+        &self,
+        req: Request<Streaming<v1::BlobChunk>>,
+    ) -> Result<Response<v1::UploadBlobResponse>, Status> {
+        let mut stream = req.into_inner();
+        let mut parts = Vec::new();
+        while let Some(c) = stream.next().await {
+            parts.push(c?);
+        }
+        let (_, size) = self.blobs.assemble(&parts).map_err(|e| {
+            warn!(error = %e, "upload refused");
+            Status::invalid_argument(format!("upload refused: {e}"))
+        })?;
+        Ok(Response::new(v1::UploadBlobResponse { size: size as u64 }))
+    }
+
+    async fn submit_job(
+        &self,
+        req: Request<v1::SubmitJobRequest>,
+    ) -> Result<Response<v1::SubmitJobResponse>, Status> {
+        let r = req.into_inner();
+        check_version(r.protocol_version)?;
+        let manifest = self.blobs.get(&r.scene_hash).ok_or_else(|| {
+            Status::failed_precondition("upload the scene manifest before submitting")
+        })?;
+        let (desc, assets) =
+            decode_manifest(&manifest).map_err(|e| Status::invalid_argument(e.to_string()))?;
+        for (key, hash) in &assets {
+            if self.blobs.get(hash).is_none() {
+                return Err(Status::failed_precondition(format!(
+                    "asset {key} has not been uploaded"
+                )));
+            }
+        }
+        let spp_override = (r.spp > 0).then_some(r.spp);
+        let (geometry, _, sampler, _) =
+            farm_worker::render::film_and_sampler(&desc, &RenderOptions { spp: spp_override });
+        if geometry.cropped_pixel_bounds.is_empty() {
+            return Err(Status::invalid_argument("the film has no pixels"));
+        }
+        let spec = JobSpec {
+            name: if r.name.is_empty() { desc.name.clone() } else { r.name },
+            priority: r.priority,
+            scene_hash: r.scene_hash,
+            spp_override: r.spp,
+            spp: sampler.samples_per_pixel(),
+            geometry,
+        };
+        let (reply, rx) = oneshot::channel();
+        self.send(Event::Submit { spec, reply })?;
+        let id = rx.await.map_err(|_| Status::unavailable("the coordinator is shutting down"))?;
+        Ok(Response::new(v1::SubmitJobResponse { job_id: id.0 }))
+    }
+
+    type WatchJobStream = BoxStream<v1::JobEvent>;
+
+    async fn watch_job(
+        &self,
+        req: Request<v1::WatchJobRequest>,
+    ) -> Result<Response<Self::WatchJobStream>, Status> {
+        let job = JobId(req.into_inner().job_id);
+        let (tx, rx) = mpsc::unbounded_channel();
+        let (reply, known) = oneshot::channel();
+        self.send(Event::Watch { job, tx, reply })?;
+        if !known.await.unwrap_or(false) {
+            return Err(Status::not_found(format!("no job {}", job.0)));
+        }
+        Ok(Response::new(Box::pin(UnboundedReceiverStream::new(rx))))
+    }
+
+    async fn get_status(
+        &self,
+        _req: Request<v1::GetStatusRequest>,
+    ) -> Result<Response<v1::GetStatusResponse>, Status> {
+        let (reply, rx) = oneshot::channel();
+        self.send(Event::Status { reply })?;
+        let (jobs, workers) =
+            rx.await.map_err(|_| Status::unavailable("the coordinator is shutting down"))?;
+        Ok(Response::new(v1::GetStatusResponse {
+            jobs: jobs
+                .into_iter()
+                .map(|j| v1::JobStatus {
+                    job_id: j.id.0,
+                    name: j.name,
+                    state: j.state.to_string(),
+                    tiles_done: j.done,
+                    tiles_total: j.total,
+                    priority: j.priority,
+                })
+                .collect(),
+            workers: workers
+                .into_iter()
+                .map(|w| v1::WorkerStatus {
+                    worker_id: w.id.0,
+                    name: w.name,
+                    threads: w.threads,
+                    in_flight: w.in_flight,
+                    tiles_done: w.tiles_done,
+                })
+                .collect(),
+        }))
+    }
+
+    async fn cancel_job(
+        &self,
+        req: Request<v1::CancelJobRequest>,
+    ) -> Result<Response<v1::CancelJobResponse>, Status> {
+        let job = JobId(req.into_inner().job_id);
+        let (reply, rx) = oneshot::channel();
+        self.send(Event::Cancel { job, reply })?;
+        let cancelled = rx.await.unwrap_or(false);
+        Ok(Response::new(v1::CancelJobResponse { cancelled }))
+    }
+}

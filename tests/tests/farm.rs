@@ -1,0 +1,163 @@
+//! The farm over gRPC on loopback: whatever the number of workers, however
+//! they fail, the image is bit-identical to the embedded render.
+
+use farm_coordinator::client::{self, RemoteOptions};
+use farm_coordinator::output::RgbImage;
+use farm_coordinator::submit::{self, SubmitOptions};
+use farm_proto::v1::{
+    self, coordinator_client::CoordinatorClient, coordinator_message, worker_message,
+};
+use farm_proto::PROTOCOL_VERSION;
+use farm_tests::cluster::TestCluster;
+use std::path::{Path, PathBuf};
+use std::time::Duration;
+use tokio::sync::mpsc;
+use tokio_stream::wrappers::UnboundedReceiverStream;
+
+const SPP: u32 = 2;
+
+fn scene() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../scenes/example.pbrt")
+}
+
+fn bits(img: &RgbImage) -> Vec<u32> {
+    img.pixels.iter().flat_map(|p| p.map(f32::to_bits)).collect()
+}
+
+fn embedded() -> RgbImage {
+    let opts = SubmitOptions { spp: Some(SPP), threads: 2, ..Default::default() };
+    submit::render(&scene(), &opts, |_| {}).expect("embedded render").image
+}
+
+async fn remote(url: &str) -> RgbImage {
+    let opts = RemoteOptions { spp: Some(SPP), ..Default::default() };
+    client::submit(url, &scene(), &opts, |_, _| {}).await.expect("farm render").image
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 4)]
+async fn one_two_and_four_workers_match_the_embedded_render_bit_for_bit() {
+    let reference = bits(&embedded());
+    for n in [1, 2, 4] {
+        let cluster = TestCluster::start(n, Duration::from_millis(500)).await;
+        let image = remote(&cluster.url).await;
+        assert!(bits(&image) == reference, "{n} workers: image differs from the embedded render");
+        cluster.stop().await;
+    }
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 4)]
+async fn a_worker_killed_mid_job_changes_no_bit() {
+    let reference = bits(&embedded());
+    let cluster = TestCluster::start(2, Duration::from_millis(200)).await;
+    let victim = cluster.workers[0].abort_handle();
+    let opts = RemoteOptions { spp: Some(SPP), ..Default::default() };
+    let mut killed = false;
+    let summary = client::submit(&cluster.url, &scene(), &opts, |_, p| {
+        if !killed && p.tiles_done * 5 >= p.tiles_total {
+            victim.abort();
+            killed = true;
+        }
+    })
+    .await
+    .expect("farm render");
+    assert!(killed, "the worker was killed during the job");
+    assert!(bits(&summary.image) == reference, "image differs after a worker was killed");
+    cluster.stop().await;
+}
+
+/// Registers a hand-driven worker and opens its Work stream.
+async fn fake_worker(
+    url: &str,
+    max_in_flight: u32,
+) -> (mpsc::UnboundedSender<v1::WorkerMessage>, tonic::Streaming<v1::CoordinatorMessage>) {
+    let mut c = CoordinatorClient::connect(url.to_string()).await.expect("connect");
+    let reg = v1::RegisterWorkerRequest {
+        protocol_version: PROTOCOL_VERSION,
+        name: "fake".into(),
+        threads: 1,
+    };
+    let id = c.register_worker(reg).await.expect("register").into_inner().worker_id;
+    let (tx, rx) = mpsc::unbounded_channel();
+    tx.send(v1::WorkerMessage {
+        kind: Some(worker_message::Kind::Hello(v1::Hello { worker_id: id, max_in_flight })),
+    })
+    .expect("hello");
+    let inbound = c.work(UnboundedReceiverStream::new(rx)).await.expect("work").into_inner();
+    (tx, inbound)
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 4)]
+async fn a_stalled_worker_loses_its_tiles_without_changing_a_bit() {
+    let reference = bits(&embedded());
+    let cluster = TestCluster::start(0, Duration::from_millis(100)).await;
+    // The staller takes tiles and never answers, not even with a heartbeat.
+    let (_keep_open, mut staller) = fake_worker(&cluster.url, 8).await;
+    let url = cluster.url.clone();
+    let job = tokio::spawn(async move { remote(&url).await });
+    let first = staller.message().await.expect("stream").expect("an assignment");
+    assert!(matches!(first.kind, Some(coordinator_message::Kind::Assign(_))));
+    let mut cluster = cluster;
+    cluster.add_worker();
+    let image = tokio::time::timeout(Duration::from_secs(120), job)
+        .await
+        .expect("job finishes")
+        .expect("task");
+    assert!(bits(&image) == reference, "image differs after a stalled worker");
+    cluster.stop().await;
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 4)]
+async fn duplicates_bad_tiles_and_unknown_jobs_are_refused_without_harm() {
+    let reference = bits(&embedded());
+    let cluster = TestCluster::start(0, Duration::from_millis(300)).await;
+    let (tx, mut inbound) = fake_worker(&cluster.url, 1).await;
+    let url = cluster.url.clone();
+    let job = tokio::spawn(async move { remote(&url).await });
+    let Some(coordinator_message::Kind::Assign(a)) =
+        inbound.message().await.expect("stream").expect("msg").kind
+    else {
+        panic!("expected an assignment");
+    };
+    let result = |film_tile: v1::FilmTile, job_id: u64| v1::WorkerMessage {
+        kind: Some(worker_message::Kind::Result(v1::TileResult {
+            job_id,
+            tile: a.tile,
+            attempt: a.attempt,
+            outcome: Some(v1::tile_result::Outcome::FilmTile(film_tile)),
+            stats: None,
+        })),
+    };
+    // A truncated tile, a tile with the wrong bounds, and a result for a job that does not exist.
+    let truncated = v1::FilmTile { x0: 0, y0: 0, x1: 16, y1: 16, pixels: vec![0; 100] };
+    let wrong = v1::FilmTile { x0: 0, y0: 0, x1: 3, y1: 3, pixels: vec![0; 9 * 16] };
+    tx.send(result(truncated, a.job_id)).expect("send");
+    tx.send(result(wrong.clone(), a.job_id)).expect("send");
+    tx.send(result(wrong, 9999)).expect("send");
+    // Real workers finish the job; the coordinator is still answering.
+    let mut cluster = cluster;
+    cluster.add_worker();
+    let image = tokio::time::timeout(Duration::from_secs(120), job)
+        .await
+        .expect("job finishes")
+        .expect("task");
+    assert!(bits(&image) == reference, "bad input changed the image");
+    let status = client::status(&cluster.url).await.expect("coordinator still answers");
+    assert_eq!(status.jobs[0].state, "done");
+    drop(tx);
+    cluster.stop().await;
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_protocol_version_mismatch_is_refused() {
+    let cluster = TestCluster::start(0, Duration::from_millis(500)).await;
+    let mut c = CoordinatorClient::connect(cluster.url.clone()).await.expect("connect");
+    let reg = v1::RegisterWorkerRequest {
+        protocol_version: PROTOCOL_VERSION + 1,
+        name: "future".into(),
+        threads: 1,
+    };
+    let err = c.register_worker(reg).await.expect_err("refused");
+    assert_eq!(err.code(), tonic::Code::FailedPrecondition);
+    assert!(err.message().contains("protocol version"), "{}", err.message());
+    cluster.stop().await;
+}
