@@ -178,7 +178,9 @@ async fn run_coordinator(args: CoordinatorArgs) -> ExitCode {
         }
     };
     let heartbeat = std::time::Duration::from_secs_f64(args.heartbeat.clamp(0.05, 3600.0));
-    eprintln!("coordinator listening on {}", args.listen);
+    let addr =
+        listener.local_addr().map(|a| a.to_string()).unwrap_or_else(|_| args.listen.to_string());
+    eprintln!("coordinator listening on {addr}");
     match crate::server::serve(
         listener,
         crate::server::ServerConfig::with_heartbeat(heartbeat),

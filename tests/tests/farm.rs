@@ -161,3 +161,64 @@ async fn a_protocol_version_mismatch_is_refused() {
     assert!(err.message().contains("protocol version"), "{}", err.message());
     cluster.stop().await;
 }
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn an_oversized_message_is_refused_and_the_coordinator_lives_on() {
+    let cluster = TestCluster::start(0, Duration::from_millis(500)).await;
+    let (tx, mut inbound) = fake_worker(&cluster.url, 1).await;
+    let huge = v1::FilmTile {
+        x0: 0,
+        y0: 0,
+        x1: 1,
+        y1: 1,
+        pixels: vec![0; farm_proto::MAX_MESSAGE_SIZE + 1],
+    };
+    tx.send(v1::WorkerMessage {
+        kind: Some(worker_message::Kind::Result(v1::TileResult {
+            job_id: 1,
+            tile: 0,
+            attempt: 0,
+            outcome: Some(v1::tile_result::Outcome::FilmTile(huge)),
+            stats: None,
+        })),
+    })
+    .expect("send");
+    // The coordinator drops this worker's session...
+    let ended = tokio::time::timeout(Duration::from_secs(30), async {
+        while let Ok(Some(_)) = inbound.message().await {}
+    })
+    .await;
+    assert!(ended.is_ok(), "the oversized message did not end the session");
+    // ...and keeps serving everyone else.
+    let status = client::status(&cluster.url).await.expect("coordinator still answers");
+    assert!(status.workers.is_empty(), "the offending worker is gone");
+    cluster.stop().await;
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_coordinator_shutting_down_tells_its_clients() {
+    let cluster = TestCluster::start(0, Duration::from_millis(500)).await;
+    let url = cluster.url.clone();
+    let job = tokio::spawn(async move {
+        let opts = RemoteOptions { spp: Some(SPP), ..Default::default() };
+        client::submit(&url, &scene(), &opts, |_, _| {}).await
+    });
+    // Wait until the job is queued (there are no workers), then stop the coordinator.
+    for _ in 0..500 {
+        if client::status(&cluster.url).await.is_ok_and(|s| !s.jobs.is_empty()) {
+            break;
+        }
+        tokio::time::sleep(Duration::from_millis(10)).await;
+    }
+    cluster.stop().await;
+    let err = tokio::time::timeout(Duration::from_secs(30), job)
+        .await
+        .expect("client returns")
+        .expect("task");
+    match err {
+        Err(client::ClientError::JobFailed(m)) => assert!(m.contains("shutting down"), "{m}"),
+        other => {
+            panic!("expected the job to fail with the shutdown, got {:?}", other.map(|s| s.output))
+        }
+    }
+}

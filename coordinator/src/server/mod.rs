@@ -53,6 +53,9 @@ pub enum ServerError {
     /// The transport failed.
     #[error("gRPC server: {0}")]
     Transport(#[from] tonic::transport::Error),
+    /// The scheduler's event loop failed.
+    #[error("the scheduler failed: {0}")]
+    Scheduler(String),
 }
 
 /// Serves the coordinator on `listener` until `shutdown` completes; then
@@ -63,7 +66,7 @@ pub async fn serve(
     shutdown: impl Future<Output = ()> + Send,
 ) -> Result<(), ServerError> {
     let (events, rx) = mpsc::unbounded_channel();
-    let loop_task = tokio::spawn(events::run(rx, config.clone()));
+    let mut loop_task = tokio::spawn(events::run(rx, config.clone()));
     let ticker = {
         let events = events.clone();
         let every = config.heartbeat_interval;
@@ -87,15 +90,24 @@ pub async fn serve(
     let result = tonic::transport::Server::builder()
         .add_service(health_service)
         .add_service(grpc)
-        .serve_with_incoming_shutdown(TcpListenerStream::new(listener), async move {
-            shutdown.await;
-            tracing::info!("coordinator shutting down");
-            let _ = stop_events.send(Event::Shutdown);
+        .serve_with_incoming_shutdown(TcpListenerStream::new(listener), async {
+            // Stop on request, or if the scheduler's loop ever dies: a
+            // coordinator without its scheduler must not linger.
+            tokio::select! {
+                _ = shutdown => {
+                    tracing::info!("coordinator shutting down");
+                    let _ = stop_events.send(Event::Shutdown);
+                }
+                r = &mut loop_task => {
+                    tracing::error!(?r, "the scheduler stopped unexpectedly");
+                }
+            }
         })
         .await;
     ticker.abort();
     let _ = events.send(Event::Shutdown);
     drop(events);
-    let _ = loop_task.await;
-    result.map_err(ServerError::from)
+    let loop_result = if loop_task.is_finished() { Ok(()) } else { loop_task.await };
+    result.map_err(ServerError::from)?;
+    loop_result.map_err(|e| ServerError::Scheduler(e.to_string()))
 }

@@ -1,0 +1,314 @@
+//! `cargo bench -p farm-tests --bench farm`: what the farm costs.
+//!
+//! 1. Farm overhead: one scene rendered embedded (`farm submit`) and through
+//!    a coordinator and one worker *process* on loopback, which needs
+//!    `cargo build --release -p farm-coordinator` first.
+//! 2. Coordinator capacity: an in-process coordinator fed by many fake
+//!    workers that answer every assignment at once with a precomputed tile,
+//!    so the only real work is the coordinator's (and the client's).
+
+use farm_common::film::FilmGeometry;
+use farm_common::ids::TileId;
+use farm_coordinator::client::{self, RemoteOptions};
+use farm_coordinator::server::{serve, ServerConfig};
+use farm_coordinator::submit::{self, SubmitOptions};
+use farm_proto::v1::{
+    self, coordinator_client::CoordinatorClient, coordinator_message, tile_result, worker_message,
+};
+use farm_proto::PROTOCOL_VERSION;
+use farm_worker::render::film_and_sampler;
+use farm_worker::RenderOptions;
+use std::collections::HashMap;
+use std::path::{Path, PathBuf};
+use std::process::{Child, Command, Stdio};
+use std::sync::Arc;
+use std::time::{Duration, Instant};
+use tokio::runtime::Runtime;
+use tokio::sync::{mpsc, oneshot};
+use tokio_stream::wrappers::UnboundedReceiverStream;
+
+/// Runs of each variant in table 1.
+const RUNS: usize = 3;
+/// Fake worker counts of table 2.
+const FAKE_WORKERS: [usize; 3] = [8, 32, 128];
+/// Tiles each fake worker may hold.
+const FAKE_IN_FLIGHT: u32 = 16;
+
+/// The capacity job: a big film of trivial content. 2048² is the largest
+/// square whose finished image (12 bytes a pixel) fits in one 64 MiB gRPC
+/// message (4096² would be 192 MiB).
+const CAPACITY_SCENE: &str = r#"
+LookAt 0 0 -5  0 0 0  0 1 0
+Camera "perspective" "float fov" [ 40 ]
+Film "image" "integer xresolution" [ 2048 ] "integer yresolution" [ 2048 ]
+PixelFilter "box"
+Sampler "halton" "integer pixelsamples" [ 1 ]
+WorldBegin
+LightSource "point" "point from" [ 0 0 -3 ] "rgb I" [ 10 10 10 ]
+Shape "sphere" "float radius" [ 1 ]
+WorldEnd
+"#;
+
+fn main() {
+    let rt = tokio::runtime::Builder::new_multi_thread().enable_all().build().expect("runtime");
+    overhead_table(&rt);
+    println!();
+    capacity_table(&rt);
+}
+
+// ---------------------------------------------------------------- table 1
+
+/// Child processes killed when dropped, also on panic.
+struct Procs(Vec<Child>);
+
+impl Drop for Procs {
+    fn drop(&mut self) {
+        for c in &mut self.0 {
+            let _ = c.kill();
+            let _ = c.wait();
+        }
+    }
+}
+
+/// `target/release/farm` beside `target/release/deps/<this bench>`.
+fn farm_binary() -> Option<PathBuf> {
+    let exe = std::env::current_exe().ok()?;
+    exe.ancestors().skip(1).take(2).map(|d| d.join("farm")).find(|p| p.is_file())
+}
+
+fn free_port() -> u16 {
+    let l = std::net::TcpListener::bind("127.0.0.1:0").expect("bind 127.0.0.1:0");
+    l.local_addr().expect("addr").port()
+}
+
+/// Waits until the coordinator at `url` answers and lists `n` workers.
+async fn wait_for_workers(url: &str, n: usize) {
+    let deadline = Instant::now() + Duration::from_secs(30);
+    loop {
+        if let Ok(s) = client::status(url).await {
+            if s.workers.len() >= n {
+                return;
+            }
+        }
+        assert!(Instant::now() < deadline, "no coordinator with {n} workers at {url} after 30 s");
+        tokio::time::sleep(Duration::from_millis(20)).await;
+    }
+}
+
+/// A coordinator process and, once it answers, one worker process of two threads.
+fn start_farm(bin: &Path, rt: &Runtime) -> (Procs, String) {
+    let addr = format!("127.0.0.1:{}", free_port());
+    let url = format!("http://{addr}");
+    let spawn = |args: &[&str]| {
+        Command::new(bin)
+            .args(args)
+            .stdout(Stdio::null())
+            .stderr(Stdio::null())
+            .spawn()
+            .unwrap_or_else(|e| panic!("starting {} {args:?}: {e}", bin.display()))
+    };
+    let mut procs = Procs(vec![spawn(&["coordinator", "--listen", &addr])]);
+    rt.block_on(wait_for_workers(&url, 0));
+    procs.0.push(spawn(&["worker", "--coordinator", &url, "--threads", "2"]));
+    rt.block_on(wait_for_workers(&url, 1));
+    (procs, url)
+}
+
+fn min_median(v: &mut [f64]) -> (f64, f64) {
+    v.sort_by(f64::total_cmp);
+    (v[0], v[v.len() / 2])
+}
+
+fn overhead_table(rt: &Runtime) {
+    println!("Farm overhead: embedded (2 threads) vs coordinator + 1 worker process (2 threads)");
+    let Some(bin) = farm_binary() else {
+        println!("  SKIPPED: no `farm` binary beside this bench; run");
+        println!("  `cargo build --release -p farm-coordinator` first.");
+        return;
+    };
+    let mut scenes =
+        vec![("example", Path::new(env!("CARGO_MANIFEST_DIR")).join("../scenes/example.pbrt"))];
+    if let Some(shared) = farm_tests::shared_dir() {
+        let k = shared.join("scenes/killeroo-simple/killeroo-simple-whitted.pbrt");
+        if k.is_file() {
+            scenes.push(("killeroo-simple", k));
+        }
+    }
+    let spp = 16;
+    println!(
+        "{:<18} {:>4} {:>13} {:>13} {:>9} {:>9} {:>14}",
+        "scene", "spp", "embedded min", "embedded med", "farm min", "farm med", "farm/embedded"
+    );
+    for (name, path) in &scenes {
+        let (mut embedded, mut farm) = (Vec::new(), Vec::new());
+        for _ in 0..RUNS {
+            let opts = SubmitOptions { threads: 2, spp: Some(spp), ..Default::default() };
+            let t = Instant::now();
+            submit::render(path, &opts, |_| {}).expect("embedded render");
+            embedded.push(t.elapsed().as_secs_f64());
+
+            // A fresh farm per run, so the worker's scene cache is cold like the embedded render.
+            let (procs, url) = start_farm(&bin, rt);
+            let opts = RemoteOptions { spp: Some(spp), ..Default::default() };
+            let t = Instant::now();
+            rt.block_on(client::submit(&url, path, &opts, |_, _| {})).expect("farm render");
+            farm.push(t.elapsed().as_secs_f64());
+            drop(procs);
+        }
+        let (e_min, e_med) = min_median(&mut embedded);
+        let (f_min, f_med) = min_median(&mut farm);
+        println!(
+            "{:<18} {:>4} {:>13.3} {:>13.3} {:>9.3} {:>9.3} {:>14.3}",
+            name,
+            spp,
+            e_min,
+            e_med,
+            f_min,
+            f_med,
+            f_min / e_min
+        );
+    }
+    println!(
+        "{RUNS} runs each, alternating; farm = submit call to image received \
+         (client parse, upload, worker scene fetch and build, render, merge); goal ≤ 1.03."
+    );
+}
+
+// ---------------------------------------------------------------- table 2
+
+/// Precomputed answers: the film layout and one tile's bytes per distinct size.
+struct Tiles {
+    geometry: FilmGeometry,
+    bytes: HashMap<(i32, i32), Vec<u8>>,
+}
+
+impl Tiles {
+    fn new(geometry: FilmGeometry) -> Self {
+        let px: Vec<u8> = [0.5f32, 0.5, 0.5, 1.0].iter().flat_map(|v| v.to_le_bytes()).collect();
+        let mut bytes = HashMap::new();
+        for t in 0..geometry.tile_count() {
+            let b = geometry.tile_pixel_bounds(TileId(t));
+            bytes.entry((b.width(), b.height())).or_insert_with(|| px.repeat(b.area()));
+        }
+        Tiles { geometry, bytes }
+    }
+
+    fn tile(&self, t: u32) -> v1::FilmTile {
+        let b = self.geometry.tile_pixel_bounds(TileId(t));
+        v1::FilmTile {
+            x0: b.min.x,
+            y0: b.min.y,
+            x1: b.max.x,
+            y1: b.max.y,
+            pixels: self.bytes[&(b.width(), b.height())].clone(),
+        }
+    }
+}
+
+/// Registers, opens the Work stream and answers every assignment at once.
+async fn fake_worker(url: String, tiles: Arc<Tiles>) {
+    let mut c = CoordinatorClient::connect(url).await.expect("connect");
+    let reg = v1::RegisterWorkerRequest {
+        protocol_version: PROTOCOL_VERSION,
+        name: "fake".into(),
+        threads: 1,
+    };
+    let id = c.register_worker(reg).await.expect("register").into_inner().worker_id;
+    let (tx, rx) = mpsc::unbounded_channel();
+    let hello = v1::Hello { worker_id: id, max_in_flight: FAKE_IN_FLIGHT };
+    tx.send(v1::WorkerMessage { kind: Some(worker_message::Kind::Hello(hello)) }).expect("hello");
+    let mut inbound = c.work(UnboundedReceiverStream::new(rx)).await.expect("work").into_inner();
+    while let Ok(Some(msg)) = inbound.message().await {
+        let Some(coordinator_message::Kind::Assign(a)) = msg.kind else { continue };
+        let result = v1::TileResult {
+            job_id: a.job_id,
+            tile: a.tile,
+            attempt: a.attempt,
+            outcome: Some(tile_result::Outcome::FilmTile(tiles.tile(a.tile))),
+            stats: None,
+        };
+        let msg = v1::WorkerMessage { kind: Some(worker_message::Kind::Result(result)) };
+        if tx.send(msg).is_err() {
+            break;
+        }
+    }
+}
+
+/// Seconds to the last tile's progress event and to the image, or why not.
+async fn capacity_run(
+    workers: usize,
+    scene: &Path,
+    tiles: &Arc<Tiles>,
+) -> Result<(f64, f64), String> {
+    let listener = tokio::net::TcpListener::bind("127.0.0.1:0").await.expect("bind");
+    let url = format!("http://{}", listener.local_addr().expect("addr"));
+    let (stop, stopped) = oneshot::channel::<()>();
+    let config = ServerConfig::with_heartbeat(Duration::from_secs(5));
+    let server = tokio::spawn(serve(listener, config, async {
+        let _ = stopped.await;
+    }));
+    let fakes: Vec<_> =
+        (0..workers).map(|_| tokio::spawn(fake_worker(url.clone(), tiles.clone()))).collect();
+    wait_for_workers(&url, workers).await;
+
+    let t = Instant::now();
+    let mut last_tile = None;
+    let opts = RemoteOptions::default();
+    let job = client::submit(&url, scene, &opts, |_, p| {
+        if p.tiles_done == p.tiles_total && last_tile.is_none() {
+            last_tile = Some(t.elapsed().as_secs_f64());
+        }
+    });
+    let result = match tokio::time::timeout(Duration::from_secs(120), job).await {
+        Ok(Ok(_)) => {
+            let total = t.elapsed().as_secs_f64();
+            Ok((last_tile.unwrap_or(total), total))
+        }
+        Ok(Err(e)) => Err(e.to_string()),
+        Err(_) => Err("timed out after 120 s".into()),
+    };
+
+    let _ = stop.send(());
+    let _ = tokio::time::timeout(Duration::from_secs(10), server).await;
+    for f in fakes {
+        f.abort();
+    }
+    result
+}
+
+fn capacity_table(rt: &Runtime) {
+    println!("Coordinator capacity: in-process coordinator, fake workers answering at once");
+    let dir = std::env::temp_dir().join(format!("farm-bench-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).expect("temp dir");
+    let scene = dir.join("capacity.pbrt");
+    std::fs::write(&scene, CAPACITY_SCENE).expect("write scene");
+    let (desc, _) = farm_coordinator::scene::parse_str(CAPACITY_SCENE, "capacity.pbrt", &dir)
+        .expect("capacity scene parses");
+    let (geometry, ..) = film_and_sampler(&desc, &RenderOptions { spp: None });
+    let n = geometry.tile_count();
+    let tiles = Arc::new(Tiles::new(geometry));
+    println!(
+        "{:>7} {:>7} {:>9} {:>9} {:>13} {:>20}",
+        "workers", "tiles", "seconds", "tiles/s", "last tile s", "tiles/s to last tile"
+    );
+    for workers in FAKE_WORKERS {
+        match rt.block_on(capacity_run(workers, &scene, &tiles)) {
+            Ok((last, total)) => println!(
+                "{:>7} {:>7} {:>9.3} {:>9.0} {:>13.3} {:>20.0}",
+                workers,
+                n,
+                total,
+                n as f64 / total,
+                last,
+                n as f64 / last
+            ),
+            Err(e) => println!("{workers:>7} {n:>7} failed: {e}"),
+        }
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+    println!(
+        "tiles/s = tiles / (submit call to image received); goal > 50,000. Client, fake workers \
+         and coordinator share this machine's {} cores, so the coordinator gets only part of them.",
+        std::thread::available_parallelism().map_or(0, |n| n.get())
+    );
+}
