@@ -60,7 +60,7 @@ fn sigkill_of_a_worker_process_changes_no_byte() {
     }
 
     let farm_out = dir.join("farm.pfm");
-    let mut submit = farm()
+    let submit = farm()
         .args(["submit", "--quiet", "--spp", "4", "--coordinator", &url, "-o"])
         .arg(&farm_out)
         .arg(scene())
