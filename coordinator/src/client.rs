@@ -129,6 +129,7 @@ pub async fn submit(
         .job_id;
     let startup_seconds = start.elapsed().as_secs_f64();
     let mut events = client.watch_job(v1::WatchJobRequest { job_id: job }).await?.into_inner();
+    let mut assembler = ImageAssembler::default();
     while let Some(ev) = events.message().await? {
         match ev.kind {
             Some(job_event::Kind::Progress(p)) => progress(
@@ -141,7 +142,7 @@ pub async fn submit(
                 },
             ),
             Some(job_event::Kind::Image(img)) => {
-                let image = decode_image(&img)?;
+                let Some(image) = assembler.add(&img)? else { continue };
                 return Ok(RenderSummary {
                     image,
                     output: opts.output.clone().unwrap_or_else(|| PathBuf::from(&film.filename)),
@@ -160,20 +161,47 @@ pub async fn submit(
     Err(ClientError::Protocol("the job's event stream ended without an image".into()))
 }
 
-fn decode_image(img: &v1::JobImage) -> Result<RgbImage, ClientError> {
-    let n = img.width as usize * img.height as usize;
-    if img.rgb.len() != n * 12 {
-        return Err(ClientError::Protocol(format!(
-            "image of {} bytes for {}×{}",
-            img.rgb.len(),
-            img.width,
-            img.height
-        )));
+/// Collects an image sent as chunks of rows.
+#[derive(Default)]
+struct ImageAssembler {
+    image: Option<RgbImage>,
+    rows: usize,
+}
+
+impl ImageAssembler {
+    /// Adds a chunk; returns the image once every row is in.
+    fn add(&mut self, img: &v1::JobImage) -> Result<Option<RgbImage>, ClientError> {
+        let (w, h) = (img.width as usize, img.height as usize);
+        let image = self.image.get_or_insert_with(|| RgbImage {
+            width: w,
+            height: h,
+            pixels: vec![[0.0; 3]; w * h],
+        });
+        let row_bytes = w * 12;
+        if image.width != w
+            || image.height != h
+            || img.first_row as usize != self.rows
+            || (row_bytes > 0 && img.rgb.len() % row_bytes != 0)
+        {
+            return Err(ClientError::Protocol(format!(
+                "image chunk at row {} ({} bytes) does not fit a {w}×{h} image",
+                img.first_row,
+                img.rgb.len()
+            )));
+        }
+        let rows = if row_bytes == 0 { h } else { img.rgb.len() / row_bytes };
+        if self.rows + rows > h {
+            return Err(ClientError::Protocol("more image rows than the image has".into()));
+        }
+        let f = |i: usize| {
+            f32::from_le_bytes([img.rgb[i], img.rgb[i + 1], img.rgb[i + 2], img.rgb[i + 3]])
+        };
+        for (i, px) in image.pixels[self.rows * w..(self.rows + rows) * w].iter_mut().enumerate() {
+            *px = [f(i * 12), f(i * 12 + 4), f(i * 12 + 8)];
+        }
+        self.rows += rows;
+        Ok((self.rows == h).then(|| self.image.take()).flatten())
     }
-    let f =
-        |i: usize| f32::from_le_bytes([img.rgb[i], img.rgb[i + 1], img.rgb[i + 2], img.rgb[i + 3]]);
-    let pixels = (0..n).map(|i| [f(i * 12), f(i * 12 + 4), f(i * 12 + 8)]).collect();
-    Ok(RgbImage { width: img.width as usize, height: img.height as usize, pixels })
 }
 
 /// Jobs and workers.

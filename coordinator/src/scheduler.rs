@@ -158,8 +158,12 @@ struct Job {
     stats: RayStats,
     started: Option<Instant>,
     done_tiles: u32,
+    last_progress: Instant,
     finished: Option<std::sync::Arc<FinishedJob>>,
 }
+
+/// Longest quiet spell between progress updates of a running job.
+const PROGRESS_EVERY: Duration = Duration::from_millis(100);
 
 struct Worker {
     name: String,
@@ -235,6 +239,7 @@ impl Scheduler {
             stats: RayStats::default(),
             started: None,
             done_tiles: 0,
+            last_progress: Instant::now(),
             finished: None,
         };
         self.jobs.insert(id, job);
@@ -330,21 +335,35 @@ impl Scheduler {
         };
         match film.accept(tile, film_tile) {
             Ok(Accepted::New) => {
-                j.in_flight.remove(&tile.0);
-                j.pending.retain(|&t| t != tile.0);
+                // A tile is pending, in flight or in: only a late result for a
+                // requeued tile can still be in the queue.
+                if j.in_flight.remove(&tile.0).is_none() {
+                    j.pending.retain(|&t| t != tile.0);
+                }
                 j.stats.add(&stats);
                 j.done_tiles += 1;
                 if let Some(w) = self.workers.get_mut(&worker) {
                     w.tiles_done += 1;
                 }
-                let update = JobUpdate::Progress {
-                    done: j.done_tiles,
-                    total: j.spec.geometry.tile_count(),
-                    workers: j.in_flight.values().map(|(w, _)| *w).collect::<HashSet<_>>().len()
-                        as u32,
-                    stats: j.stats,
-                };
-                out.notify(job, update);
+                // Progress goes out every 0.5% of the tiles or 100 ms, not per tile.
+                let total = j.spec.geometry.tile_count();
+                let now = Instant::now();
+                let step = (total / 200).max(1);
+                if j.done_tiles == total
+                    || j.done_tiles % step == 0
+                    || now.duration_since(j.last_progress) >= PROGRESS_EVERY
+                {
+                    j.last_progress = now;
+                    let workers: HashSet<WorkerId> =
+                        j.in_flight.values().map(|(w, _)| *w).collect();
+                    let update = JobUpdate::Progress {
+                        done: j.done_tiles,
+                        total,
+                        workers: workers.len() as u32,
+                        stats: j.stats,
+                    };
+                    out.notify(job, update);
+                }
                 if film.is_complete() {
                     self.finish(job, out);
                 }

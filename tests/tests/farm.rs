@@ -110,7 +110,7 @@ async fn a_stalled_worker_loses_its_tiles_without_changing_a_bit() {
 async fn duplicates_bad_tiles_and_unknown_jobs_are_refused_without_harm() {
     let reference = bits(&embedded());
     let cluster = TestCluster::start(0, Duration::from_millis(300)).await;
-    let (tx, mut inbound) = fake_worker(&cluster.url, 1).await;
+    let (tx, mut inbound) = fake_worker(&cluster.url, 2).await;
     let url = cluster.url.clone();
     let job = tokio::spawn(async move { remote(&url).await });
     let Some(coordinator_message::Kind::Assign(a)) =
@@ -133,6 +133,29 @@ async fn duplicates_bad_tiles_and_unknown_jobs_are_refused_without_harm() {
     tx.send(result(truncated, a.job_id)).expect("send");
     tx.send(result(wrong.clone(), a.job_id)).expect("send");
     tx.send(result(wrong, 9999)).expect("send");
+    // Then the next tile it is given, rendered for real, sent twice.
+    let Some(coordinator_message::Kind::Assign(b)) =
+        inbound.message().await.expect("stream").expect("msg").kind
+    else {
+        panic!("expected a second assignment");
+    };
+    let (desc, _) = farm_coordinator::scene::parse_file(&scene()).expect("scene");
+    let (renderer, _) =
+        farm_worker::Renderer::new(&desc, &farm_worker::RenderOptions { spp: Some(SPP) })
+            .expect("renderer");
+    let (tile, _) = renderer.render_tile(farm_common::ids::TileId(b.tile));
+    for _ in 0..2 {
+        tx.send(v1::WorkerMessage {
+            kind: Some(worker_message::Kind::Result(v1::TileResult {
+                job_id: b.job_id,
+                tile: b.tile,
+                attempt: b.attempt,
+                outcome: Some(v1::tile_result::Outcome::FilmTile(v1::FilmTile::from(&tile))),
+                stats: None,
+            })),
+        })
+        .expect("send");
+    }
     // Real workers finish the job; the coordinator is still answering.
     let mut cluster = cluster;
     cluster.add_worker();
@@ -221,4 +244,35 @@ async fn a_coordinator_shutting_down_tells_its_clients() {
             panic!("expected the job to fail with the shutdown, got {:?}", other.map(|s| s.output))
         }
     }
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 4)]
+async fn a_large_image_arrives_in_chunks_intact() {
+    // 1024² RGB f32 is 12 MiB: more than one image chunk.
+    let source = r#"
+        LookAt 0 0 -4  0 0 0  0 1 0
+        Camera "perspective" "float fov" 50
+        Film "image" "integer xresolution" 1024 "integer yresolution" 1024
+        Sampler "halton" "integer pixelsamples" 1
+        Integrator "whitted"
+        WorldBegin
+        LightSource "point" "point from" [2 2 -3] "rgb I" [10 10 10]
+        Material "matte" "rgb Kd" [0.6 0.4 0.2]
+        Shape "sphere" "float radius" 1
+        WorldEnd
+    "#;
+    let dir = std::env::temp_dir().join(format!("farm-large-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).expect("dir");
+    let path = dir.join("large.pbrt");
+    std::fs::write(&path, source).expect("write");
+    let embedded =
+        submit::render(&path, &SubmitOptions { threads: 2, ..Default::default() }, |_| {})
+            .expect("embedded");
+    let cluster = TestCluster::start(2, Duration::from_millis(500)).await;
+    let farm = client::submit(&cluster.url, &path, &RemoteOptions::default(), |_, _| {})
+        .await
+        .expect("farm");
+    assert_eq!((farm.image.width, farm.image.height), (1024, 1024));
+    assert!(bits(&farm.image) == bits(&embedded.image), "the chunked image differs");
+    cluster.stop().await;
 }

@@ -43,13 +43,19 @@ fn shared_scenes_match_pbrt_v3_within_twice_its_error() {
             continue;
         };
         let bound = 2.0 * s.pbrt_rel_mse;
+        // How far we are from pbrt-v3's own render at the same settings (for information).
+        let pbrt16 = read_exr(&shared.join("reference").join(&s.scene).join("whitted.exr"))
+            .ok()
+            .and_then(|p| metrics::compare(&summary.image, &p))
+            .map_or(f64::NAN, |e| e.rel_mse);
         let rays = summary.stats.total_rays() as f64;
         println!(
-            "{:<32} {:>10.3e} {:>10.3e} {:>7.2} {:>8.2} {:>9.2}",
+            "{:<32} {:>10.3e} {:>10.3e} {:>7.2} {:>12.2e} {:>8.2} {:>9.2}",
             s.scene,
             err.rel_mse,
             bound,
             err.rel_mse / s.pbrt_rel_mse,
+            pbrt16,
             summary.render_seconds,
             rays / summary.render_seconds / 1e6
         );

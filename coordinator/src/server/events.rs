@@ -88,36 +88,51 @@ fn rpc_stats(s: &RayStats) -> Option<v1::RayStats> {
     Some(v1::RayStats::from(s))
 }
 
-/// The protocol form of a job update.
-fn job_event(update: &JobUpdate) -> v1::JobEvent {
-    let kind = match update {
+/// Bytes of pixel rows per image event, well below the message limit.
+const IMAGE_CHUNK_BYTES: usize = 8 << 20;
+
+/// The protocol form of a job update: one event, or for a finished image
+/// one event per chunk of rows.
+fn job_events(update: &JobUpdate) -> Vec<v1::JobEvent> {
+    let one = |kind| vec![v1::JobEvent { kind: Some(kind) }];
+    match update {
         JobUpdate::Progress { done, total, workers, stats } => {
-            job_event::Kind::Progress(v1::JobProgress {
+            one(job_event::Kind::Progress(v1::JobProgress {
                 tiles_done: *done,
                 tiles_total: *total,
                 workers_active: *workers,
                 stats: rpc_stats(stats),
-            })
+            }))
         }
         JobUpdate::Finished(f) => {
-            let mut rgb = Vec::with_capacity(f.image.pixels.len() * 12);
-            for p in &f.image.pixels {
-                for c in p {
-                    rgb.extend_from_slice(&c.to_le_bytes());
-                }
-            }
-            job_event::Kind::Image(v1::JobImage {
-                width: f.image.width as u32,
-                height: f.image.height as u32,
-                rgb,
-                spp: f.spp,
-                render_seconds: f.render_seconds,
-                stats: rpc_stats(&f.stats),
-            })
+            let (w, h) = (f.image.width, f.image.height);
+            let rows_per_chunk = (IMAGE_CHUNK_BYTES / (w * 12).max(1)).max(1);
+            (0..h.max(1))
+                .step_by(rows_per_chunk)
+                .map(|y0| {
+                    let y1 = (y0 + rows_per_chunk).min(h);
+                    let mut rgb = Vec::with_capacity((y1 - y0) * w * 12);
+                    for p in f.image.pixels.get(y0 * w..y1 * w).unwrap_or_default() {
+                        for c in p {
+                            rgb.extend_from_slice(&c.to_le_bytes());
+                        }
+                    }
+                    v1::JobEvent {
+                        kind: Some(job_event::Kind::Image(v1::JobImage {
+                            width: w as u32,
+                            height: h as u32,
+                            rgb,
+                            first_row: y0 as u32,
+                            spp: f.spp,
+                            render_seconds: f.render_seconds,
+                            stats: rpc_stats(&f.stats),
+                        })),
+                    }
+                })
+                .collect()
         }
-        JobUpdate::Failed(m) => job_event::Kind::Failed(v1::JobFailed { message: m.clone() }),
-    };
-    v1::JobEvent { kind: Some(kind) }
+        JobUpdate::Failed(m) => one(job_event::Kind::Failed(v1::JobFailed { message: m.clone() })),
+    }
 }
 
 impl Outbox for GrpcOutbox {
@@ -155,8 +170,8 @@ impl Outbox for GrpcOutbox {
     fn notify(&mut self, job: JobId, update: JobUpdate) {
         let final_update = !matches!(update, JobUpdate::Progress { .. });
         if let Some(list) = self.watchers.get_mut(&job) {
-            let ev = job_event(&update);
-            list.retain(|tx| tx.send(Ok(ev.clone())).is_ok());
+            let events = job_events(&update);
+            list.retain(|tx| events.iter().all(|ev| tx.send(Ok(ev.clone())).is_ok()));
         }
         if final_update {
             self.watchers.remove(&job);
@@ -192,7 +207,9 @@ pub async fn run(mut rx: mpsc::UnboundedReceiver<Event>, config: ServerConfig) {
             Event::Watch { job, tx, reply } => match sched.snapshot(job) {
                 Some(update) => {
                     let last = !matches!(update, JobUpdate::Progress { .. });
-                    let _ = tx.send(Ok(job_event(&update)));
+                    for ev in job_events(&update) {
+                        let _ = tx.send(Ok(ev));
+                    }
                     if !last {
                         out.watchers.entry(job).or_default().push(tx);
                     }
