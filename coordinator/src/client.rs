@@ -181,7 +181,7 @@ impl ImageAssembler {
         if image.width != w
             || image.height != h
             || img.first_row as usize != self.rows
-            || (row_bytes > 0 && img.rgb.len() % row_bytes != 0)
+            || (row_bytes > 0 && !img.rgb.len().is_multiple_of(row_bytes))
         {
             return Err(ClientError::Protocol(format!(
                 "image chunk at row {} ({} bytes) does not fit a {w}×{h} image",
@@ -189,7 +189,7 @@ impl ImageAssembler {
                 img.rgb.len()
             )));
         }
-        let rows = if row_bytes == 0 { h } else { img.rgb.len() / row_bytes };
+        let rows = img.rgb.len().checked_div(row_bytes).unwrap_or(h);
         if self.rows + rows > h {
             return Err(ClientError::Protocol("more image rows than the image has".into()));
         }
