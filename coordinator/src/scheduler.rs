@@ -561,6 +561,9 @@ impl Scheduler {
     /// taking the next tile of the first job (by priority, then submission)
     /// it may work on.
     fn fill(&mut self, out: &mut impl Outbox) {
+        if !self.workers.values().any(|w| (w.in_flight.len() as u32) < w.max_in_flight) {
+            return;
+        }
         let mut order: Vec<JobId> =
             self.jobs.values().filter(|j| j.state.is_active()).map(|j| j.id).collect();
         order.sort_by_key(|id| (-self.jobs[id].spec.priority, *id));

@@ -16,7 +16,7 @@ use std::future::Future;
 use std::time::Duration;
 use tokio::net::TcpListener;
 use tokio::sync::mpsc;
-use tokio_stream::wrappers::TcpListenerStream;
+use tonic::transport::server::TcpIncoming;
 
 /// Settings of a coordinator.
 #[derive(Clone, Debug)]
@@ -90,7 +90,8 @@ pub async fn serve(
     let result = tonic::transport::Server::builder()
         .add_service(health_service)
         .add_service(grpc)
-        .serve_with_incoming_shutdown(TcpListenerStream::new(listener), async {
+        // Tiles and assignments are small messages: no Nagle delays.
+        .serve_with_incoming_shutdown(TcpIncoming::from(listener).with_nodelay(Some(true)), async {
             // Stop on request, or if the scheduler's loop ever dies: a
             // coordinator without its scheduler must not linger.
             tokio::select! {
