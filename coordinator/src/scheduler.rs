@@ -12,7 +12,7 @@ use crate::output::RgbImage;
 use farm_common::film::{FilmGeometry, FilmTile};
 use farm_common::ids::{JobId, TileId, WorkerId};
 use farm_common::stats::RayStats;
-use std::collections::{BTreeMap, HashMap, HashSet, VecDeque};
+use std::collections::{BTreeMap, BTreeSet, HashMap, HashSet, VecDeque};
 use std::time::{Duration, Instant};
 use tracing::{debug, info, warn};
 
@@ -211,13 +211,22 @@ pub struct Scheduler {
     config: SchedulerConfig,
     jobs: BTreeMap<JobId, Job>,
     workers: BTreeMap<WorkerId, Worker>,
+    /// Workers with a free slot: the only ones `fill` looks at, so the cost
+    /// of a result does not grow with the size of the farm.
+    ready: BTreeSet<WorkerId>,
     next_job: u64,
 }
 
 impl Scheduler {
     /// No jobs, no workers.
     pub fn new(config: SchedulerConfig) -> Self {
-        Scheduler { config, jobs: BTreeMap::new(), workers: BTreeMap::new(), next_job: 1 }
+        Scheduler {
+            config,
+            jobs: BTreeMap::new(),
+            workers: BTreeMap::new(),
+            ready: BTreeSet::new(),
+            next_job: 1,
+        }
     }
 
     /// Queues a job and hands out tiles.
@@ -270,12 +279,14 @@ impl Scheduler {
             tiles_done: 0,
         };
         self.workers.insert(id, w);
+        self.ready.insert(id);
         self.fill(out);
     }
 
     /// A worker's session ended: its tiles go back to the queue.
     pub fn worker_left(&mut self, id: WorkerId, out: &mut impl Outbox) {
         let Some(w) = self.workers.remove(&id) else { return };
+        self.ready.remove(&id);
         info!(worker = id.0, tiles = w.in_flight.len(), "worker left; its tiles are requeued");
         let mut lost: Vec<(JobId, u32)> = w.in_flight.into_iter().collect();
         lost.sort_unstable();
@@ -422,6 +433,7 @@ impl Scheduler {
             if let Some(wk) = self.workers.get_mut(&w) {
                 wk.in_flight.retain(|(jb, _)| *jb != job);
             }
+            self.refresh_ready(w);
         }
         info!(job = job.0, "job cancelled");
         out.notify(job, JobUpdate::Failed("the job was cancelled".into()));
@@ -492,6 +504,19 @@ impl Scheduler {
         if let Some(w) = self.workers.get_mut(&worker) {
             w.in_flight.remove(&(job, tile));
         }
+        self.refresh_ready(worker);
+    }
+
+    /// Keeps `ready` equal to the set of workers with a free slot.
+    fn refresh_ready(&mut self, worker: WorkerId) {
+        match self.workers.get(&worker) {
+            Some(w) if (w.in_flight.len() as u32) < w.max_in_flight => {
+                self.ready.insert(worker);
+            }
+            _ => {
+                self.ready.remove(&worker);
+            }
+        }
     }
 
     fn record_failure(
@@ -537,6 +562,7 @@ impl Scheduler {
             if let Some(wk) = self.workers.get_mut(&w) {
                 wk.in_flight.retain(|(jb, _)| *jb != job);
             }
+            self.refresh_ready(w);
         }
         out.notify(job, JobUpdate::Failed(reason));
     }
@@ -561,7 +587,7 @@ impl Scheduler {
     /// taking the next tile of the first job (by priority, then submission)
     /// it may work on.
     fn fill(&mut self, out: &mut impl Outbox) {
-        if !self.workers.values().any(|w| (w.in_flight.len() as u32) < w.max_in_flight) {
+        if self.ready.is_empty() {
             return;
         }
         let mut order: Vec<JobId> =
@@ -573,9 +599,9 @@ impl Scheduler {
         let max_worker = self.config.max_worker_failures;
         loop {
             let mut assigned = false;
-            let ids: Vec<WorkerId> = self.workers.keys().copied().collect();
+            let ids: Vec<WorkerId> = self.ready.iter().copied().collect();
             for wid in ids {
-                let w = &self.workers[&wid];
+                let Some(w) = self.workers.get(&wid) else { continue };
                 if w.in_flight.len() as u32 >= w.max_in_flight {
                     continue;
                 }
@@ -615,6 +641,7 @@ impl Scheduler {
                         spp: j.spec.spp_override,
                     };
                     self.workers.get_mut(&wid).expect("worker").in_flight.insert((*jid, tile));
+                    self.refresh_ready(wid);
                     out.assign(wid, a);
                     assigned = true;
                     break;
