@@ -32,12 +32,12 @@ pub enum Event {
         /// Its outgoing stream.
         tx: WorkerTx,
     },
-    /// A message on a worker's stream.
+    /// A message on a worker's stream, already decoded off the loop.
     FromWorker {
         /// The worker.
         id: WorkerId,
         /// What it said.
-        kind: worker_message::Kind,
+        msg: FromWorker,
     },
     /// A worker's stream ended.
     WorkerGone {
@@ -190,10 +190,16 @@ pub async fn run(mut rx: mpsc::UnboundedReceiver<Event>, config: ServerConfig) {
                 out.workers.insert(id, tx);
                 sched.worker_joined(id, name, threads, max_in_flight, now, &mut out);
             }
-            Event::FromWorker { id, kind } => {
+            Event::FromWorker { id, msg } => {
                 sched.heard_from(id, now);
-                if let worker_message::Kind::Result(r) = kind {
-                    handle_result(&mut sched, &mut out, id, r);
+                match msg {
+                    FromWorker::Tile { job, tile, film_tile, stats } => {
+                        sched.tile_done(id, job, tile, film_tile, stats, &mut out)
+                    }
+                    FromWorker::Failed { job, tile, message, retryable } => {
+                        sched.tile_failed(id, job, tile, message, retryable, &mut out)
+                    }
+                    FromWorker::Alive => {}
                 }
             }
             Event::WorkerGone { id } => {
@@ -236,28 +242,63 @@ pub async fn run(mut rx: mpsc::UnboundedReceiver<Event>, config: ServerConfig) {
     }
 }
 
-fn handle_result(sched: &mut Scheduler, out: &mut GrpcOutbox, id: WorkerId, r: v1::TileResult) {
-    let (job, tile) = (JobId(r.job_id), TileId(r.tile));
-    let stats = r.stats.as_ref().map(RayStats::from).unwrap_or_default();
-    match r.outcome {
-        Some(tile_result::Outcome::FilmTile(ft)) => match FilmTile::try_from(&ft) {
-            Ok(t) => sched.tile_done(id, job, tile, t, stats, out),
-            Err(e) => {
-                warn!(worker = id.0, job = job.0, tile = tile.0, error = %e, "malformed film tile refused");
-                sched.tile_failed(id, job, tile, format!("malformed film tile: {e}"), true, out);
+/// What a worker said, decoded and checked by its stream's own task so the
+/// scheduler's loop only does scheduling.
+#[derive(Debug)]
+pub enum FromWorker {
+    /// A rendered tile.
+    Tile {
+        /// The job.
+        job: JobId,
+        /// The tile.
+        tile: TileId,
+        /// Its sums.
+        film_tile: FilmTile,
+        /// Its rays.
+        stats: RayStats,
+    },
+    /// A tile that could not be rendered (or whose result was malformed).
+    Failed {
+        /// The job.
+        job: JobId,
+        /// The tile.
+        tile: TileId,
+        /// Why.
+        message: String,
+        /// Whether another worker may succeed.
+        retryable: bool,
+    },
+    /// A heartbeat (or a message with nothing in it).
+    Alive,
+}
+
+impl FromWorker {
+    /// Decodes a worker's message; malformed results become retryable failures.
+    pub fn decode(id: WorkerId, kind: Option<worker_message::Kind>) -> FromWorker {
+        let Some(worker_message::Kind::Result(r)) = kind else { return FromWorker::Alive };
+        let (job, tile) = (JobId(r.job_id), TileId(r.tile));
+        let stats = r.stats.as_ref().map(RayStats::from).unwrap_or_default();
+        let failed = |message: String| FromWorker::Failed { job, tile, message, retryable: true };
+        match r.outcome {
+            Some(tile_result::Outcome::FilmTile(ft)) => match FilmTile::try_from(&ft) {
+                Ok(film_tile) => FromWorker::Tile { job, tile, film_tile, stats },
+                Err(e) => {
+                    warn!(worker = id.0, job = job.0, tile = tile.0, error = %e, "malformed film tile refused");
+                    failed(format!("malformed film tile: {e}"))
+                }
+            },
+            Some(tile_result::Outcome::Failure(f)) => {
+                FromWorker::Failed { job, tile, message: f.message, retryable: f.retryable }
             }
-        },
-        Some(tile_result::Outcome::Failure(f)) => {
-            sched.tile_failed(id, job, tile, f.message, f.retryable, out)
-        }
-        None => {
-            warn!(
-                worker = id.0,
-                job = job.0,
-                tile = tile.0,
-                "tile result without an outcome refused"
-            );
-            sched.tile_failed(id, job, tile, "empty tile result".into(), true, out);
+            None => {
+                warn!(
+                    worker = id.0,
+                    job = job.0,
+                    tile = tile.0,
+                    "tile result without an outcome refused"
+                );
+                failed("empty tile result".into())
+            }
         }
     }
 }

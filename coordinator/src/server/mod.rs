@@ -7,7 +7,7 @@ mod events;
 mod service;
 
 pub use blobs::{BlobStore, UploadError};
-pub use events::Event;
+pub use events::{Event, FromWorker};
 
 use crate::scheduler::SchedulerConfig;
 use farm_proto::v1::coordinator_server::CoordinatorServer;

@@ -2,7 +2,7 @@
 //! network and turns it into scheduler events.
 
 use super::blobs::{chunks, BlobStore};
-use super::events::Event;
+use super::events::{Event, FromWorker};
 use crate::scheduler::JobSpec;
 use farm_common::ids::{JobId, WorkerId};
 use farm_proto::convert::decode_manifest;
@@ -112,8 +112,8 @@ impl Coordinator for CoordinatorService {
             loop {
                 match inbound.message().await {
                     Ok(Some(m)) => {
-                        let Some(kind) = m.kind else { continue };
-                        if events.send(Event::FromWorker { id, kind }).is_err() {
+                        let msg = FromWorker::decode(id, m.kind);
+                        if events.send(Event::FromWorker { id, msg }).is_err() {
                             break;
                         }
                     }
