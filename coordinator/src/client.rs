@@ -5,9 +5,9 @@ use crate::output::RgbImage;
 use crate::submit::RenderSummary;
 use farm_common::film::FilmGeometry;
 use farm_common::stats::RayStats;
-use farm_proto::convert::{encode_scene, Blob};
+use farm_proto::convert::{blob_chunks, encode_scene, Blob};
 use farm_proto::v1::{self, coordinator_client::CoordinatorClient, job_event};
-use farm_proto::{BLOB_CHUNK_SIZE, MAX_MESSAGE_SIZE, PROTOCOL_VERSION};
+use farm_proto::{MAX_MESSAGE_SIZE, PROTOCOL_VERSION};
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 use tonic::transport::Channel;
@@ -55,22 +55,7 @@ pub async fn upload(
     client: &mut CoordinatorClient<Channel>,
     blob: &Blob,
 ) -> Result<(), ClientError> {
-    let total = blob.data.len() as u64;
-    let hash = blob.hash.to_vec();
-    let parts: Vec<v1::BlobChunk> = if blob.data.is_empty() {
-        vec![v1::BlobChunk { hash, total_size: 0, offset: 0, data: Vec::new() }]
-    } else {
-        blob.data
-            .chunks(BLOB_CHUNK_SIZE)
-            .enumerate()
-            .map(|(i, c)| v1::BlobChunk {
-                hash: hash.clone(),
-                total_size: total,
-                offset: (i * BLOB_CHUNK_SIZE) as u64,
-                data: c.to_vec(),
-            })
-            .collect()
-    };
+    let parts = blob_chunks(&blob.hash, &blob.data);
     client.upload_blob(tokio_stream::iter(parts)).await?;
     Ok(())
 }

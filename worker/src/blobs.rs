@@ -3,7 +3,7 @@
 //! against its blake3 hash before it is kept, and concurrent requests for
 //! one blob share a single fetch.
 
-use farm_proto::convert::Hash;
+use farm_proto::convert::{BlobAssembler, ChunkError, Hash};
 use farm_proto::v1::coordinator_client::CoordinatorClient;
 use farm_proto::v1::FetchBlobRequest;
 use std::collections::HashMap;
@@ -79,42 +79,17 @@ impl BlobSource for CoordinatorClient<Channel> {
         let malformed = |reason: String| BlobError::Malformed { hash: hex(&hash), reason };
         let request = FetchBlobRequest { hash: hash.to_vec() };
         let mut stream = self.clone().fetch_blob(request).await.map_err(status)?.into_inner();
-        let mut data = Vec::new();
-        let mut total: Option<u64> = None;
         // Reassemble the chunks, which must arrive in order.
+        let mut assembler = BlobAssembler::new(u64::MAX);
         while let Some(chunk) = stream.message().await.map_err(status)? {
-            if chunk.hash != hash {
-                return Err(malformed("a chunk names another blob".into()));
-            }
-            match total {
-                None => {
-                    let size = usize::try_from(chunk.total_size).map_err(|_| {
-                        malformed(format!("size {} is too large", chunk.total_size))
-                    })?;
-                    data.reserve(size.min(1 << 28));
-                    total = Some(chunk.total_size);
-                }
-                Some(t) if t != chunk.total_size => {
-                    return Err(malformed("chunks disagree on the total size".into()));
-                }
-                Some(_) => {}
-            }
-            if chunk.offset != data.len() as u64 {
-                return Err(malformed(format!(
-                    "chunk at offset {} where {} was expected",
-                    chunk.offset,
-                    data.len()
-                )));
-            }
-            data.extend_from_slice(&chunk.data);
-            if data.len() as u64 > chunk.total_size {
-                return Err(malformed("more bytes than the total size".into()));
-            }
+            assembler.push(&chunk).map_err(|e| malformed(e.to_string()))?;
         }
-        if let Some(t) = total {
-            if data.len() as u64 != t {
-                return Err(malformed(format!("{} of {t} bytes arrived", data.len())));
-            }
+        let (named, data) = match assembler.finish() {
+            Err(ChunkError::Empty) => return Ok(Vec::new()),
+            r => r.map_err(|e| malformed(e.to_string()))?,
+        };
+        if named != hash {
+            return Err(malformed("a chunk names another blob".into()));
         }
         Ok(data)
     }

@@ -1,8 +1,7 @@
 //! The coordinator's content-addressed store of scene manifests and assets.
 
-use farm_proto::convert::Hash;
+use farm_proto::convert::{BlobAssembler, ChunkError, Hash};
 use farm_proto::v1::BlobChunk;
-use farm_proto::BLOB_CHUNK_SIZE;
 use std::collections::HashMap;
 use std::sync::{Arc, Mutex};
 
@@ -15,15 +14,9 @@ pub struct BlobStore {
 /// Why an upload was refused.
 #[derive(Debug, thiserror::Error, PartialEq, Eq)]
 pub enum UploadError {
-    /// Nothing was sent.
-    #[error("empty upload")]
-    Empty,
-    /// Chunks disagree on the hash or size, or arrive out of order.
+    /// The chunks do not form a blob.
     #[error("chunks are inconsistent: {0}")]
-    Inconsistent(&'static str),
-    /// The declared size exceeds the limit.
-    #[error("blob of {0} bytes exceeds the {1}-byte limit")]
-    TooLarge(u64, u64),
+    Inconsistent(#[from] ChunkError),
     /// The bytes do not hash to the declared hash.
     #[error("the data does not match its hash")]
     HashMismatch,
@@ -48,32 +41,12 @@ impl BlobStore {
 
     /// Reassembles uploaded chunks, checks the hash and stores the blob.
     pub fn assemble(&self, chunks: &[BlobChunk]) -> Result<(Hash, usize), UploadError> {
-        let first = chunks.first().ok_or(UploadError::Empty)?;
-        let hash: Hash = first
-            .hash
-            .as_slice()
-            .try_into()
-            .map_err(|_| UploadError::Inconsistent("hash is not 32 bytes"))?;
-        let total = first.total_size;
-        if total > MAX_BLOB_SIZE {
-            return Err(UploadError::TooLarge(total, MAX_BLOB_SIZE));
-        }
-        let mut data = Vec::with_capacity(total as usize);
+        let mut a = BlobAssembler::new(MAX_BLOB_SIZE);
         for c in chunks {
-            if c.hash != first.hash || c.total_size != total {
-                return Err(UploadError::Inconsistent("hash or size changes between chunks"));
-            }
-            if c.offset != data.len() as u64 {
-                return Err(UploadError::Inconsistent("chunk offsets are not contiguous"));
-            }
-            data.extend_from_slice(&c.data);
-            if data.len() as u64 > total {
-                return Err(UploadError::Inconsistent("more bytes than declared"));
-            }
+            a.push(c)?;
         }
-        if data.len() as u64 != total {
-            return Err(UploadError::Inconsistent("fewer bytes than declared"));
-        }
+        let (hash, data) = a.finish()?;
+        let hash: Hash = hash.as_slice().try_into().map_err(|_| UploadError::HashMismatch)?;
         if blake3::hash(&data).as_bytes() != &hash {
             return Err(UploadError::HashMismatch);
         }
@@ -83,33 +56,18 @@ impl BlobStore {
     }
 }
 
-/// The chunks of a blob, for streaming.
-pub fn chunks(hash: &[u8], data: &[u8]) -> Vec<BlobChunk> {
-    let total = data.len() as u64;
-    if data.is_empty() {
-        return vec![BlobChunk { hash: hash.to_vec(), total_size: 0, offset: 0, data: Vec::new() }];
-    }
-    data.chunks(BLOB_CHUNK_SIZE)
-        .enumerate()
-        .map(|(i, c)| BlobChunk {
-            hash: hash.to_vec(),
-            total_size: total,
-            offset: (i * BLOB_CHUNK_SIZE) as u64,
-            data: c.to_vec(),
-        })
-        .collect()
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
+    use farm_proto::convert::blob_chunks;
+    use farm_proto::BLOB_CHUNK_SIZE;
 
     #[test]
     fn uploads_round_trip_and_corruption_is_refused() {
         let data: Vec<u8> = (0..3 * BLOB_CHUNK_SIZE as u32 / 2).map(|i| (i % 251) as u8).collect();
         let hash: Hash = blake3::hash(&data).into();
         let store = BlobStore::default();
-        let parts = chunks(&hash, &data);
+        let parts = blob_chunks(&hash, &data);
         assert_eq!(parts.len(), 2);
         assert_eq!(store.assemble(&parts), Ok((hash, data.len())));
         assert_eq!(store.get(&hash).as_deref(), Some(&data));

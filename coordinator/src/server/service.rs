@@ -1,11 +1,11 @@
 //! The `renderfarm.v1.Coordinator` service: checks what arrives from the
 //! network and turns it into scheduler events.
 
-use super::blobs::{chunks, BlobStore};
+use super::blobs::BlobStore;
 use super::events::{Event, FromWorker};
 use crate::scheduler::JobSpec;
 use farm_common::ids::{JobId, WorkerId};
-use farm_proto::convert::decode_manifest;
+use farm_proto::convert::{blob_chunks, decode_manifest};
 use farm_proto::v1::{self, coordinator_server::Coordinator, worker_message};
 use farm_proto::PROTOCOL_VERSION;
 use farm_worker::RenderOptions;
@@ -138,7 +138,7 @@ impl Coordinator for CoordinatorService {
         let hash = req.into_inner().hash;
         let data =
             self.blobs.get(&hash).ok_or_else(|| Status::not_found("no blob with that hash"))?;
-        let parts = chunks(&hash, &data);
+        let parts = blob_chunks(&hash, &data);
         Ok(Response::new(Box::pin(tokio_stream::iter(parts.into_iter().map(Ok)))))
     }
 
