@@ -4,7 +4,7 @@
 //! they were, or in what order results came back.
 
 use crate::output::RgbImage;
-use farm_common::film::{FilmGeometry, FilmTile, Pixel};
+use farm_common::film::{FilmGeometry, FilmTile};
 use farm_common::ids::TileId;
 use std::collections::BTreeMap;
 
@@ -32,7 +32,8 @@ pub enum Accepted {
 #[derive(Debug)]
 pub struct Film {
     geometry: FilmGeometry,
-    pixels: Vec<Pixel>,
+    /// The whole image as one tile of sums over the cropped pixel bounds.
+    sums: FilmTile,
     next: u32,
     pending: BTreeMap<u32, FilmTile>,
 }
@@ -40,8 +41,8 @@ pub struct Film {
 impl Film {
     /// An empty film.
     pub fn new(geometry: FilmGeometry) -> Self {
-        let n = geometry.cropped_pixel_bounds.area();
-        Film { geometry, pixels: vec![Pixel::default(); n], next: 0, pending: BTreeMap::new() }
+        let sums = FilmTile::new(geometry.cropped_pixel_bounds);
+        Film { geometry, sums, next: 0, pending: BTreeMap::new() }
     }
 
     /// The layout.
@@ -83,23 +84,10 @@ impl Film {
         }
         self.pending.insert(id.0, tile);
         while let Some(t) = self.pending.remove(&self.next) {
-            self.merge(&t);
+            self.sums.merge(&t);
             self.next += 1;
         }
         Ok(Accepted::New)
-    }
-
-    fn merge(&mut self, tile: &FilmTile) {
-        let fb = self.geometry.cropped_pixel_bounds;
-        let overlap = fb.intersect(&tile.pixel_bounds);
-        for p in overlap.iter() {
-            let src = tile.pixels[tile.pixel_bounds.offset(p)];
-            let dst = &mut self.pixels[fb.offset(p)];
-            for c in 0..3 {
-                dst.contrib[c] += src.contrib[c];
-            }
-            dst.weight += src.weight;
-        }
     }
 
     /// The image: weighted sums divided by weights, clamped at zero, times
@@ -108,6 +96,7 @@ impl Film {
         let b = self.geometry.cropped_pixel_bounds;
         let scale = self.geometry.scale;
         let pixels = self
+            .sums
             .pixels
             .iter()
             .map(|p| {
