@@ -39,10 +39,7 @@ pub struct Aggregate {
 impl Aggregate {
     /// Builds the BVH and stores the primitives in its order.
     pub fn new(prims: Vec<Primitive>) -> Self {
-        let bounds: Vec<Bounds3f> = prims.iter().map(|p| p.shape.bounds()).collect();
-        let (bvh, order) = Bvh::build(&bounds, 4);
-        let mut slots: Vec<Option<Primitive>> = prims.into_iter().map(Some).collect();
-        let prims = order.iter().filter_map(|&i| slots[i as usize].take()).collect();
+        let (bvh, prims) = Bvh::build_over(prims, |p| p.shape.bounds(), 4);
         Aggregate { prims, bvh }
     }
 

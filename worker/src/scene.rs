@@ -126,11 +126,7 @@ impl Scene {
         }
 
         let aggregate = Aggregate::new(prims);
-        let inst_bounds: Vec<Bounds3f> = instances.iter().map(|i| i.bounds()).collect();
-        let (instance_bvh, order) = Bvh::build(&inst_bounds, 1);
-        let mut slots: Vec<Option<Instance>> = instances.into_iter().map(Some).collect();
-        let instances: Vec<Instance> =
-            order.iter().filter_map(|&i| slots[i as usize].take()).collect();
+        let (instance_bvh, instances) = Bvh::build_over(instances, Instance::bounds, 1);
         let bounds = aggregate.bounds().union(&instance_bvh.bounds());
 
         let (center, radius) =

@@ -78,6 +78,20 @@ pub struct Bvh {
 }
 
 impl Bvh {
+    /// Builds a BVH over `items` and returns them in the BVH's order, so the
+    /// index the intersection closures receive indexes the returned vector.
+    pub fn build_over<T>(
+        items: Vec<T>,
+        bounds: impl Fn(&T) -> Bounds3f,
+        max_prims_in_node: usize,
+    ) -> (Bvh, Vec<T>) {
+        let b: Vec<Bounds3f> = items.iter().map(bounds).collect();
+        let (bvh, order) = Bvh::build(&b, max_prims_in_node);
+        let mut slots: Vec<Option<T>> = items.into_iter().map(Some).collect();
+        let ordered = order.iter().filter_map(|&i| slots[i as usize].take()).collect();
+        (bvh, ordered)
+    }
+
     /// Builds the hierarchy over `prim_bounds` with at most
     /// `max_prims_in_node` (capped at 255, as in pbrt-v3) primitives per leaf
     /// where the SAH allows. Returns the hierarchy and the primitive order:
