@@ -4,7 +4,7 @@
 //! shadow ray per light per hit, and recursion along perfectly specular
 //! reflection and transmission up to `maxdepth`.
 
-use crate::bxdf::{Bsdf, BxDFType, TransportMode};
+use crate::bxdf::{Bsdf, BsdfSample, BxDFType, TransportMode};
 use crate::interaction::SurfaceInteraction;
 use crate::primitive::Hit;
 use crate::sampler::Sampler;
@@ -101,15 +101,11 @@ impl Whitted {
         stats: &mut RayStats,
     ) -> Spectrum {
         let wo = si.wo;
-        let u = sampler.get_2d();
-        let Some(s) = bsdf.sample_f(wo, u, BxDFType::REFLECTION | BxDFType::SPECULAR) else {
+        let Some(s) = sample_specular(si, bsdf, sampler, BxDFType::REFLECTION) else {
             return Spectrum::ZERO;
         };
         let ns = si.shading.n;
         let wi = s.wi;
-        if s.pdf.is_nan() || s.pdf <= 0.0 || s.f.is_black() || wi.dot(ns) == 0.0 {
-            return Spectrum::ZERO;
-        }
         let mut rd = RayDifferential::new(si.spawn_ray(wi));
         if ray.has_differentials {
             // Differentials of the mirrored direction.
@@ -141,15 +137,11 @@ impl Whitted {
         stats: &mut RayStats,
     ) -> Spectrum {
         let wo = si.wo;
-        let u = sampler.get_2d();
-        let Some(s) = bsdf.sample_f(wo, u, BxDFType::TRANSMISSION | BxDFType::SPECULAR) else {
+        let Some(s) = sample_specular(si, bsdf, sampler, BxDFType::TRANSMISSION) else {
             return Spectrum::ZERO;
         };
         let mut ns = si.shading.n;
         let wi = s.wi;
-        if s.pdf.is_nan() || s.pdf <= 0.0 || s.f.is_black() || wi.dot(ns) == 0.0 {
-            return Spectrum::ZERO;
-        }
         let mut rd = RayDifferential::new(si.spawn_ray(wi));
         if ray.has_differentials {
             // Differentials of the refracted direction (pbrt-v3's derivation
@@ -178,4 +170,19 @@ impl Whitted {
         stats.secondary_rays += 1;
         s.f * self.li(&rd, scene, sampler, depth + 1, stats) * (wi.dot(ns).abs() / s.pdf)
     }
+}
+
+/// Samples the specular lobes of one kind (reflection or transmission);
+/// `None` when they send no light back along the sampled direction.
+#[inline]
+fn sample_specular(
+    si: &SurfaceInteraction,
+    bsdf: &Bsdf,
+    sampler: &mut Sampler,
+    kind: BxDFType,
+) -> Option<BsdfSample> {
+    let u = sampler.get_2d();
+    let s = bsdf.sample_f(si.wo, u, kind | BxDFType::SPECULAR)?;
+    let useful = s.pdf > 0.0 && !s.f.is_black() && s.wi.dot(si.shading.n) != 0.0;
+    useful.then_some(s)
 }
