@@ -121,7 +121,7 @@ pub fn run(cli: Cli) -> ExitCode {
         Command::Submit(args) if args.coordinator.is_some() => block_on(run_remote_submit(args)),
         Command::Submit(args) => run_submit(args),
         Command::Coordinator(args) => block_on(run_coordinator(args)),
-        Command::Worker(args) => block_on(run_worker(args)),
+        Command::Worker(args) => block_on_one_thread(run_worker(args)),
         Command::Status(args) => block_on(run_status(args)),
         Command::Cancel(args) => block_on(run_cancel(args)),
         Command::Health(args) => block_on(async move {
@@ -139,6 +139,17 @@ pub fn run(cli: Cli) -> ExitCode {
 
 fn block_on(f: impl std::future::Future<Output = ExitCode>) -> ExitCode {
     match tokio::runtime::Builder::new_multi_thread().enable_all().build() {
+        Ok(rt) => rt.block_on(f),
+        Err(e) => {
+            eprintln!("error: cannot start the async runtime: {e}");
+            ExitCode::FAILURE
+        }
+    }
+}
+
+/// Runs `f` on a single-threaded runtime.
+fn block_on_one_thread(f: impl std::future::Future<Output = ExitCode>) -> ExitCode {
+    match tokio::runtime::Builder::new_current_thread().enable_all().build() {
         Ok(rt) => rt.block_on(f),
         Err(e) => {
             eprintln!("error: cannot start the async runtime: {e}");

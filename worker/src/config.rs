@@ -12,7 +12,7 @@ pub struct WorkerConfig {
     pub threads: usize,
     /// A human-readable name shown by `farm status`.
     pub name: String,
-    /// Tiles held at once (queued plus rendering); 0 = 2 × threads + 2.
+    /// Tiles held at once (queued plus rendering); 0 = 4 × threads + 2.
     pub max_in_flight: u32,
     /// Where to serve `grpc.health.v1`, if anywhere.
     pub health_listen: Option<SocketAddr>,
@@ -48,7 +48,7 @@ impl WorkerConfig {
         if self.max_in_flight > 0 {
             self.max_in_flight
         } else {
-            u32::try_from(threads).unwrap_or(u32::MAX / 2).saturating_mul(2).saturating_add(2)
+            u32::try_from(threads).unwrap_or(u32::MAX / 2).saturating_mul(4).saturating_add(2)
         }
     }
 }
@@ -61,7 +61,7 @@ mod tests {
     fn zero_means_automatic() {
         let c = WorkerConfig { threads: 3, ..Default::default() };
         assert_eq!(c.render_threads(), 3);
-        assert_eq!(c.in_flight(3), 8);
+        assert_eq!(c.in_flight(3), 14);
         let c = WorkerConfig { max_in_flight: 5, ..c };
         assert_eq!(c.in_flight(3), 5);
         assert!(WorkerConfig::default().render_threads() >= 1);

@@ -12,7 +12,7 @@ use farm_proto::v1::coordinator_client::CoordinatorClient;
 use farm_proto::v1::coordinator_message::Kind as FromCoordinator;
 use farm_proto::v1::worker_message::Kind as ToCoordinator;
 use farm_proto::v1::{
-    Heartbeat, Hello, RegisterWorkerRequest, RegisterWorkerResponse, WorkerMessage,
+    Heartbeat, Hello, RegisterWorkerRequest, RegisterWorkerResponse, TileResult, WorkerMessage,
 };
 use farm_proto::{MAX_MESSAGE_SIZE, PROTOCOL_VERSION};
 use std::collections::HashMap;
@@ -227,6 +227,26 @@ impl Worker {
         Ok((client, reply))
     }
 
+    /// Sends the held results, except those of cancelled jobs; false when
+    /// the stream is gone.
+    async fn send_held(
+        &mut self,
+        tx: &mpsc::Sender<WorkerMessage>,
+        held: &mut Vec<(Arc<AtomicBool>, bool, TileResult)>,
+    ) -> bool {
+        for (cancelled, rendered, result) in held.drain(..) {
+            if cancelled.load(Ordering::Relaxed) {
+                continue;
+            }
+            let message = WorkerMessage { kind: Some(ToCoordinator::Result(result)) };
+            if tx.send(message).await.is_err() {
+                return false;
+            }
+            self.summary.tiles_rendered += u64::from(rendered);
+        }
+        true
+    }
+
     /// One `Work` stream, from Hello until shutdown or a lost coordinator.
     #[tracing::instrument(skip_all, fields(worker_id = reply.worker_id))]
     async fn session(
@@ -259,6 +279,14 @@ impl Worker {
         // Per job: a flag set on cancellation, and its tiles in flight.
         let mut jobs: HashMap<u64, (Arc<AtomicBool>, usize)> = HashMap::new();
         let mut tiles: JoinSet<TileOutcome> = JoinSet::new();
+        // Finished results are held back and sent together once no more than
+        // `low_water` tiles are left in progress: one write then carries
+        // several results (and the coordinator answers with several
+        // assignments), while the tiles still in progress keep every thread
+        // busy over the round trip. Each message costs both sides system
+        // calls and wake-ups, which a tile-at-a-time exchange pays per tile.
+        let low_water = (self.pool.threads()).max(self.max_in_flight as usize / 2);
+        let mut held: Vec<(Arc<AtomicBool>, bool, TileResult)> = Vec::new();
 
         let end = loop {
             tokio::select! {
@@ -300,19 +328,17 @@ impl Worker {
                             }
                         }
                     }
-                    // Results of cancelled jobs are not sent.
-                    let Some(result) = outcome.result else { continue };
-                    if outcome.cancelled.load(Ordering::Relaxed) {
-                        continue;
+                    if let Some(result) = outcome.result {
+                        held.push((outcome.cancelled, outcome.rendered, result));
                     }
-                    let rendered = outcome.rendered;
-                    let message = WorkerMessage { kind: Some(ToCoordinator::Result(result)) };
-                    if tx.send(message).await.is_err() {
+                    if tiles.len() <= low_water && !self.send_held(&tx, &mut held).await {
                         break SessionEnd::Lost("the coordinator closed the stream".into());
                     }
-                    self.summary.tiles_rendered += u64::from(rendered);
                 }
                 _ = heartbeat.tick() => {
+                    if !self.send_held(&tx, &mut held).await {
+                        break SessionEnd::Lost("the coordinator closed the stream".into());
+                    }
                     let beat = WorkerMessage { kind: Some(ToCoordinator::Heartbeat(Heartbeat {})) };
                     if tx.send(beat).await.is_err() {
                         break SessionEnd::Lost("the coordinator closed the stream".into());
@@ -379,7 +405,7 @@ mod tests {
         }));
         let mut s = sessions.recv().await.unwrap();
         let hello = s.from_worker.recv().await.unwrap().kind;
-        assert_eq!(hello, Some(ToCoordinator::Hello(Hello { worker_id: 7, max_in_flight: 6 })));
+        assert_eq!(hello, Some(ToCoordinator::Hello(Hello { worker_id: 7, max_in_flight: 10 })));
 
         // Four tiles of one job: each comes back once, with film and stats.
         for tile in 0..4 {

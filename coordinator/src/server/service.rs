@@ -105,7 +105,7 @@ impl Coordinator for CoordinatorService {
         };
         let (tx, rx) = mpsc::unbounded_channel();
         let max_in_flight =
-            if hello.max_in_flight == 0 { 2 * threads.max(1) + 2 } else { hello.max_in_flight };
+            if hello.max_in_flight == 0 { 4 * threads.max(1) + 2 } else { hello.max_in_flight };
         self.send(Event::WorkerJoined { id, name, threads, max_in_flight, tx })?;
         let events = self.events.clone();
         tokio::spawn(async move {
