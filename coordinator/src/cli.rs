@@ -3,7 +3,7 @@
 use crate::submit::{self, SubmitError, SubmitOptions};
 use clap::{Parser, Subcommand};
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
 /// A distributed renderer for pbrt-v3 scenes.
@@ -30,6 +30,20 @@ pub enum Command {
     Cancel(CancelArgs),
     /// Exit 0 if the gRPC health service at an address reports SERVING.
     Health(HealthArgs),
+    /// Compare an image with a reference (like pbrt-v3's `imgtool diff`).
+    Diff(DiffArgs),
+}
+
+/// Arguments of `farm diff`.
+#[derive(Debug, clap::Args)]
+pub struct DiffArgs {
+    /// The image (.exr).
+    pub image: PathBuf,
+    /// The reference it is measured against (.exr, same size).
+    pub reference: PathBuf,
+    /// Write |image − reference| per pixel and channel to this image.
+    #[arg(short, long, value_name = "FILE")]
+    pub output: Option<PathBuf>,
 }
 
 /// Arguments of `farm coordinator`.
@@ -110,6 +124,10 @@ pub struct SubmitArgs {
     /// Job priority on the farm: higher runs first.
     #[arg(long, default_value_t = 0, allow_hyphen_values = true)]
     pub priority: i32,
+    /// Also write the render's per-pixel estimate of its own relMSE (from
+    /// its two half-images) to this image (.exr, .pfm or .png).
+    #[arg(long, value_name = "FILE")]
+    pub error_map: Option<PathBuf>,
 }
 
 /// Exit code for bad input (scene errors, usage errors).
@@ -124,6 +142,7 @@ pub fn run(cli: Cli) -> ExitCode {
         Command::Worker(args) => block_on_one_thread(run_worker(args)),
         Command::Status(args) => block_on(run_status(args)),
         Command::Cancel(args) => block_on(run_cancel(args)),
+        Command::Diff(args) => run_diff(&args),
         Command::Health(args) => block_on(async move {
             match crate::client::healthy(&args.addr).await {
                 Ok(true) => ExitCode::SUCCESS,
@@ -358,6 +377,67 @@ fn run_submit(args: SubmitArgs) -> ExitCode {
     }
 }
 
+/// `farm diff`: error metrics of an image against a reference.
+fn run_diff(args: &DiffArgs) -> ExitCode {
+    let read = |p: &Path| crate::output::read_exr(p).map_err(|e| e.to_string());
+    let (image, reference) = match (read(&args.image), read(&args.reference)) {
+        (Ok(a), Ok(r)) => (a, r),
+        (Err(e), _) | (_, Err(e)) => {
+            eprintln!("error: {e}");
+            return ExitCode::from(EXIT_BAD_INPUT);
+        }
+    };
+    let Some(e) = crate::metrics::compare(&image, &reference) else {
+        eprintln!(
+            "error: {} is {}×{} but {} is {}×{}",
+            args.image.display(),
+            image.width,
+            image.height,
+            args.reference.display(),
+            reference.width,
+            reference.height
+        );
+        return ExitCode::from(EXIT_BAD_INPUT);
+    };
+    println!(
+        "{} against {} ({}×{})",
+        args.image.display(),
+        args.reference.display(),
+        image.width,
+        image.height
+    );
+    println!("  relMSE     {:.6e}", e.rel_mse);
+    println!("  MSE        {:.6e}", e.mse);
+    println!("  RMSE       {:.6e}", e.mse.sqrt());
+    println!("  mean |a-r| {:.6e}", e.mean_abs);
+    println!("  max |a-r|  {:.6e} at pixel ({}, {})", e.max_abs.0, e.max_abs.1, e.max_abs.2);
+    println!("  mean       {:.6e} (image), {:.6e} (reference)", e.means.0, e.means.1);
+    println!("  non-finite {} (image), {} (reference)", e.non_finite, e.non_finite_reference);
+    if let Some(out) = &args.output {
+        let diff = crate::output::RgbImage {
+            width: image.width,
+            height: image.height,
+            pixels: image
+                .pixels
+                .iter()
+                .zip(&reference.pixels)
+                .map(|(a, r)| [0, 1, 2].map(|c| (a[c] - r[c]).abs()))
+                .collect(),
+        };
+        let meta = crate::output::ImageMetadata {
+            scene: format!("|{} - {}|", args.image.display(), args.reference.display()),
+            spp: 0,
+            render_seconds: 0.0,
+            rel_mse_estimate: None,
+        };
+        if let Err(err) = crate::output::write_image(out, &diff, &meta) {
+            eprintln!("error: {err}");
+            return ExitCode::FAILURE;
+        }
+    }
+    ExitCode::SUCCESS
+}
+
 /// Prints warnings, writes the image and prints the summary line.
 fn finish(args: &SubmitArgs, summary: submit::RenderSummary) -> ExitCode {
     if !args.quiet {
@@ -367,6 +447,19 @@ fn finish(args: &SubmitArgs, summary: submit::RenderSummary) -> ExitCode {
     }
     if let Err(e) = submit::write(&summary) {
         return fail(&e);
+    }
+    if let Some(path) = &args.error_map {
+        match &summary.error {
+            Some(error) => {
+                if let Err(e) = submit::write_error_map(path, &summary, error) {
+                    return fail(&e);
+                }
+            }
+            None => eprintln!(
+                "warning: no error map written to {}: one sample per pixel cannot be split in two halves",
+                path.display()
+            ),
+        }
     }
     let s = &summary.stats;
     let bad = s.nan_samples + s.inf_samples + s.negative_samples;
@@ -378,8 +471,12 @@ fn finish(args: &SubmitArgs, summary: submit::RenderSummary) -> ExitCode {
     }
     if !args.quiet {
         let secs = summary.render_seconds.max(1e-9);
+        let error = match &summary.error {
+            Some(e) => format!(", estimated relMSE {:.3e}", e.rel_mse),
+            None => String::new(),
+        };
         println!(
-            "{}: {}×{}, {} spp, {:.2} s ({:.2} s start-up), {:.1}M rays ({:.2} Mrays/s)",
+            "{}: {}×{}, {} spp, {:.2} s ({:.2} s start-up), {:.1}M rays ({:.2} Mrays/s){error}",
             summary.output.display(),
             summary.image.width,
             summary.image.height,

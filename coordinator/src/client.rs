@@ -1,6 +1,7 @@
 //! Talking to a coordinator: `farm submit --coordinator`, `farm status`,
 //! `farm cancel` and `farm health`.
 
+use crate::estimate::ErrorEstimate;
 use crate::output::RgbImage;
 use crate::submit::RenderSummary;
 use farm_common::film::FilmGeometry;
@@ -127,9 +128,10 @@ pub async fn submit(
                 },
             ),
             Some(job_event::Kind::Image(img)) => {
-                let Some(image) = assembler.add(&img)? else { continue };
+                let Some((image, error)) = assembler.add(&img)? else { continue };
                 return Ok(RenderSummary {
                     image,
+                    error,
                     output: opts.output.clone().unwrap_or_else(|| PathBuf::from(&film.filename)),
                     stats: img.stats.as_ref().map(RayStats::from).unwrap_or_default(),
                     spp: img.spp,
@@ -146,16 +148,25 @@ pub async fn submit(
     Err(ClientError::Protocol("the job's event stream ended without an image".into()))
 }
 
-/// Collects an image sent as chunks of rows.
+/// Collects an image (and its error map) sent as chunks of rows.
 #[derive(Default)]
 struct ImageAssembler {
     image: Option<RgbImage>,
+    error_map: Vec<f32>,
     rows: usize,
 }
 
+/// Little-endian f32s from bytes whose length is a multiple of 4.
+fn f32s(bytes: &[u8]) -> impl Iterator<Item = f32> + '_ {
+    bytes.chunks_exact(4).map(|b| f32::from_le_bytes([b[0], b[1], b[2], b[3]]))
+}
+
 impl ImageAssembler {
-    /// Adds a chunk; returns the image once every row is in.
-    fn add(&mut self, img: &v1::JobImage) -> Result<Option<RgbImage>, ClientError> {
+    /// Adds a chunk; returns the image and the error estimate once every row is in.
+    fn add(
+        &mut self,
+        img: &v1::JobImage,
+    ) -> Result<Option<(RgbImage, Option<ErrorEstimate>)>, ClientError> {
         let (w, h) = (img.width as usize, img.height as usize);
         let image = self.image.get_or_insert_with(|| RgbImage {
             width: w,
@@ -163,10 +174,12 @@ impl ImageAssembler {
             pixels: vec![[0.0; 3]; w * h],
         });
         let row_bytes = w * 12;
+        let rows = img.rgb.len().checked_div(row_bytes).unwrap_or(h);
         if image.width != w
             || image.height != h
             || img.first_row as usize != self.rows
             || (row_bytes > 0 && !img.rgb.len().is_multiple_of(row_bytes))
+            || (img.estimated_rel_mse.is_some() && img.error_map.len() != rows * w * 4)
         {
             return Err(ClientError::Protocol(format!(
                 "image chunk at row {} ({} bytes) does not fit a {w}×{h} image",
@@ -174,18 +187,27 @@ impl ImageAssembler {
                 img.rgb.len()
             )));
         }
-        let rows = img.rgb.len().checked_div(row_bytes).unwrap_or(h);
         if self.rows + rows > h {
             return Err(ClientError::Protocol("more image rows than the image has".into()));
         }
-        let f = |i: usize| {
-            f32::from_le_bytes([img.rgb[i], img.rgb[i + 1], img.rgb[i + 2], img.rgb[i + 3]])
-        };
-        for (i, px) in image.pixels[self.rows * w..(self.rows + rows) * w].iter_mut().enumerate() {
-            *px = [f(i * 12), f(i * 12 + 4), f(i * 12 + 8)];
+        let rgb: Vec<f32> = f32s(&img.rgb).collect();
+        let dst = &mut image.pixels[self.rows * w..(self.rows + rows) * w];
+        for (px, c) in dst.iter_mut().zip(rgb.chunks_exact(3)) {
+            *px = [c[0], c[1], c[2]];
         }
+        self.error_map.extend(f32s(&img.error_map));
         self.rows += rows;
-        Ok((self.rows == h).then(|| self.image.take()).flatten())
+        if self.rows < h {
+            return Ok(None);
+        }
+        let Some(image) = self.image.take() else { return Ok(None) };
+        let error = img.estimated_rel_mse.map(|rel_mse| ErrorEstimate {
+            width: w,
+            height: h,
+            per_pixel: std::mem::take(&mut self.error_map),
+            rel_mse,
+        });
+        Ok(Some((image, error)))
     }
 }
 

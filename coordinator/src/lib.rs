@@ -11,6 +11,8 @@ pub mod client;
 pub mod dispatch;
 /// Scene errors.
 pub mod error;
+/// A render's estimate of its own error from its two half-images.
+pub mod estimate;
 /// Running one job.
 pub mod job;
 /// Ordered merging of film tiles.

@@ -3,6 +3,7 @@
 //! image's bits — do not depend on how many workers rendered it, how fast
 //! they were, or in what order results came back.
 
+use crate::estimate::ErrorEstimate;
 use crate::output::RgbImage;
 use farm_common::film::{FilmGeometry, FilmTile};
 use farm_common::ids::TileId;
@@ -90,6 +91,11 @@ impl Film {
         Ok(Accepted::New)
     }
 
+    /// The render's estimate of its own error (`None` at one sample per pixel).
+    pub fn error_estimate(&self) -> Option<ErrorEstimate> {
+        crate::estimate::for_film(&self.geometry, &self.sums.pixels)
+    }
+
     /// The image: weighted sums divided by weights, clamped at zero, times
     /// the film's `scale` (pbrt-v3 `Film::WriteImage`).
     pub fn image(&self) -> RgbImage {
@@ -135,7 +141,7 @@ mod tests {
         let mut t = FilmTile::new(g.tile_pixel_bounds(TileId(id)));
         for p in t.pixel_bounds.iter() {
             let v = 0.1 + (p.x * 7 + p.y * 3 + id as i32) as f32 * 1e-3;
-            t.add(p, Spectrum::new(v, 2.0 * v, 1.0 / 3.0), 0.7);
+            t.add(p, Spectrum::new(v, 2.0 * v, 1.0 / 3.0), 0.7, p.x % 2 == 1);
         }
         t
     }

@@ -24,6 +24,8 @@ pub struct ImageMetadata {
     pub spp: u32,
     /// Wall-clock seconds spent rendering.
     pub render_seconds: f32,
+    /// The render's estimate of its own relMSE, if it has one.
+    pub rel_mse_estimate: Option<f32>,
 }
 
 /// Why an image could not be written or read.
@@ -87,6 +89,9 @@ fn write_exr(path: &Path, img: &RgbImage, meta: &ImageMetadata) -> Result<(), Im
     };
     attrs.other.insert(Text::from("spp"), AttributeValue::I32(meta.spp as i32));
     attrs.other.insert(Text::from("renderTimeSeconds"), AttributeValue::F32(meta.render_seconds));
+    if let Some(e) = meta.rel_mse_estimate {
+        attrs.other.insert(Text::from("relMSEEstimate"), AttributeValue::F32(e));
+    }
     attrs
         .other
         .insert(Text::from("sceneName"), AttributeValue::Text(Text::from(meta.scene.as_str())));

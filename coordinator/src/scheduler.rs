@@ -7,6 +7,7 @@
 //! [`crate::merge`]), so neither the number of workers, their speed, the
 //! order of results nor retries change a bit of the image.
 
+use crate::estimate::ErrorEstimate;
 use crate::merge::{Accepted, Film};
 use crate::output::RgbImage;
 use farm_common::film::{FilmGeometry, FilmTile};
@@ -83,6 +84,8 @@ pub struct FinishedJob {
     pub render_seconds: f64,
     /// Rays traced.
     pub stats: RayStats,
+    /// The render's estimate of its own error.
+    pub error: Option<ErrorEstimate>,
 }
 
 /// The scheduler's way out: messages to workers and to a job's watchers.
@@ -573,6 +576,7 @@ impl Scheduler {
         let render_seconds = j.started.map(|s| s.elapsed().as_secs_f64()).unwrap_or(0.0);
         let finished = std::sync::Arc::new(FinishedJob {
             image: film.image(),
+            error: film.error_estimate(),
             spp: j.spec.spp,
             render_seconds,
             stats: j.stats,
@@ -730,7 +734,7 @@ mod tests {
         let mut t = FilmTile::new(g.tile_pixel_bounds(tile));
         for p in t.pixel_bounds.iter() {
             let v = ((p.x * 31 + p.y * 17 + tile.0 as i32 * 7) % 97) as f32 / 97.0 + 0.013;
-            t.add(p, Spectrum::new(v, v * v, 1.0 / (1.0 + v)), 0.25 + v);
+            t.add(p, Spectrum::new(v, v * v, 1.0 / (1.0 + v)), 0.25 + v, p.y % 2 == 0);
         }
         t
     }

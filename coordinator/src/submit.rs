@@ -4,6 +4,7 @@
 
 use crate::dispatch::LocalDispatcher;
 use crate::error::SceneError;
+use crate::estimate::ErrorEstimate;
 use crate::job::{self, JobError, Progress};
 use crate::output::{self, ImageError, ImageMetadata, RgbImage};
 use farm_common::scene::Warning;
@@ -30,6 +31,8 @@ pub struct SubmitOptions {
 pub struct RenderSummary {
     /// The image.
     pub image: RgbImage,
+    /// The render's estimate of its own error (`None` at one sample per pixel).
+    pub error: Option<ErrorEstimate>,
     /// Where it goes.
     pub output: PathBuf,
     /// Rays traced.
@@ -86,6 +89,7 @@ pub fn render(
     let (film, stats) = job::run(geometry, &dispatcher, progress)?;
     Ok(RenderSummary {
         image: film.image(),
+        error: film.error_estimate(),
         output,
         stats,
         spp,
@@ -102,7 +106,30 @@ pub fn write(summary: &RenderSummary) -> Result<(), SubmitError> {
         scene: summary.scene_name.clone(),
         spp: summary.spp,
         render_seconds: summary.render_seconds as f32,
+        rel_mse_estimate: summary.error.as_ref().map(|e| e.rel_mse as f32),
     };
     output::write_image(&summary.output, &summary.image, &meta)?;
+    Ok(())
+}
+
+/// Writes the per-pixel error estimate as a grey image (the same value in
+/// R, G and B) to `path`.
+pub fn write_error_map(
+    path: &Path,
+    summary: &RenderSummary,
+    error: &ErrorEstimate,
+) -> Result<(), SubmitError> {
+    let image = RgbImage {
+        width: error.width,
+        height: error.height,
+        pixels: error.per_pixel.iter().map(|&v| [v; 3]).collect(),
+    };
+    let meta = ImageMetadata {
+        scene: format!("{} (estimated relMSE per pixel)", summary.scene_name),
+        spp: summary.spp,
+        render_seconds: summary.render_seconds as f32,
+        rel_mse_estimate: Some(error.rel_mse as f32),
+    };
+    output::write_image(path, &image, &meta)?;
     Ok(())
 }

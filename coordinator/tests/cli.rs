@@ -107,3 +107,39 @@ fn renders_the_example_scene_to_exr() {
     assert_eq!((img.width, img.height), (480, 320));
     assert!(img.pixels.iter().all(|p| p.iter().all(|v| v.is_finite())));
 }
+
+/// `farm diff` prints the README's relMSE and the largest difference, and
+/// writes the difference image; images of different sizes are bad input.
+#[test]
+fn diff_reports_the_error_and_writes_the_difference() {
+    use farm_coordinator::output::{read_exr, write_image, ImageMetadata, RgbImage};
+    let dir = temp_dir("diff");
+    let meta =
+        ImageMetadata { scene: "t".into(), spp: 1, render_seconds: 0.0, rel_mse_estimate: None };
+    let reference = RgbImage { width: 2, height: 1, pixels: vec![[1.0, 0.0, 0.5], [0.2; 3]] };
+    let image = RgbImage { width: 2, height: 1, pixels: vec![[1.0, 0.0, 0.5], [0.2, 0.7, 0.2]] };
+    let (a, r, d) = (dir.join("a.exr"), dir.join("r.exr"), dir.join("d.exr"));
+    write_image(&a, &image, &meta).expect("write");
+    write_image(&r, &reference, &meta).expect("write");
+    let out = Command::new(env!("CARGO_BIN_EXE_farm"))
+        .args(["diff", "-o"])
+        .args([&d, &a, &r])
+        .output()
+        .expect("run farm");
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(out.status.success(), "{stdout} {}", String::from_utf8_lossy(&out.stderr));
+    // One channel of six differs by 0.5 against a reference value of 0.2.
+    let rel = 0.25 / (0.04 + 0.01) / 6.0;
+    assert!(stdout.contains(&format!("relMSE     {rel:.6e}")), "{stdout}");
+    assert!(stdout.contains("at pixel (1, 0)"), "{stdout}");
+    let diff = read_exr(&d).expect("difference image");
+    assert_eq!(diff.pixels[0], [0.0; 3]);
+    assert!((diff.pixels[1][1] - 0.5).abs() < 1e-6, "{:?}", diff.pixels[1]);
+
+    let small = RgbImage { width: 1, height: 1, pixels: vec![[0.0; 3]] };
+    write_image(&r, &small, &meta).expect("write");
+    let out = Command::new(env!("CARGO_BIN_EXE_farm")).args(["diff"]).args([&a, &r]).output();
+    let out = out.expect("run farm");
+    assert_eq!(out.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("is 2×1 but"));
+}

@@ -14,7 +14,7 @@ pub mod convert;
 
 /// The protocol version workers and clients must speak. Bump it on any
 /// incompatible change to the .proto files.
-pub const PROTOCOL_VERSION: u32 = 1;
+pub const PROTOCOL_VERSION: u32 = 2;
 
 /// Largest message the farm's services accept or send (images, tiles and
 /// blob chunks stay below it).

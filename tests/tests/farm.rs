@@ -253,7 +253,7 @@ async fn a_large_image_arrives_in_chunks_intact() {
         LookAt 0 0 -4  0 0 0  0 1 0
         Camera "perspective" "float fov" 50
         Film "image" "integer xresolution" 1024 "integer yresolution" 1024
-        Sampler "halton" "integer pixelsamples" 1
+        Sampler "halton" "integer pixelsamples" 2
         Integrator "whitted"
         WorldBegin
         LightSource "point" "point from" [2 2 -3] "rgb I" [10 10 10]
@@ -274,5 +274,9 @@ async fn a_large_image_arrives_in_chunks_intact() {
         .expect("farm");
     assert_eq!((farm.image.width, farm.image.height), (1024, 1024));
     assert!(bits(&farm.image) == bits(&embedded.image), "the chunked image differs");
+    // The error estimate and its map come through the chunks unchanged too.
+    let error = embedded.error.expect("2 spp gives an error estimate");
+    assert!(error.rel_mse > 0.0 && error.per_pixel.len() == 1024 * 1024);
+    assert_eq!(farm.error, Some(error), "the chunked error estimate differs");
     cluster.stop().await;
 }

@@ -172,12 +172,21 @@ impl Renderer {
         let bounds = self.film.tile_sample_bounds(id);
         let mut tile = FilmTile::new(self.film.tile_pixel_bounds(id));
         let diff_scale = 1.0 / (sampler.samples_per_pixel() as f32).sqrt();
+        // The film keeps a second sum over each pixel's later samples, for
+        // the render's estimate of its own error. Halton's samples of even
+        // and odd index fall in the left and right halves of a pixel, so
+        // their difference measures the image's gradient, not its noise;
+        // the first and second halves of the sequence are each spread over
+        // the whole pixel.
+        let half = sampler.samples_per_pixel() / 2;
         for pixel in bounds.iter() {
             if !self.pixel_bounds.contains(pixel) {
                 continue;
             }
             sampler.start_pixel(pixel);
+            let mut index = 0u32;
             loop {
+                let second_half = index >= half;
                 let cs = sampler.camera_sample(pixel);
                 let (weight, mut ray) = self.camera.generate_ray_differential(&cs);
                 ray.scale_differentials(diff_scale);
@@ -197,7 +206,8 @@ impl Renderer {
                     stats.inf_samples += 1;
                     l = Spectrum::ZERO;
                 }
-                self.add_sample(&mut tile, cs.p_film, l, weight);
+                self.add_sample(&mut tile, cs.p_film, l, weight, second_half);
+                index += 1;
                 if !sampler.start_next_sample() {
                     break;
                 }
@@ -206,9 +216,18 @@ impl Renderer {
         (tile, stats)
     }
 
-    /// Splats one sample onto the pixels its filter reaches (pbrt-v3 `FilmTile::AddSample`).
+    /// Splats one sample onto the pixels its filter reaches (pbrt-v3
+    /// `FilmTile::AddSample`); `second_half` says whether it belongs to the
+    /// second half of its pixel's samples.
     #[inline]
-    fn add_sample(&self, tile: &mut FilmTile, p_film: Vec2, mut l: Spectrum, sample_weight: f32) {
+    fn add_sample(
+        &self,
+        tile: &mut FilmTile,
+        p_film: Vec2,
+        mut l: Spectrum,
+        sample_weight: f32,
+        second_half: bool,
+    ) {
         let y = l.y();
         if y > self.film.max_sample_luminance {
             l *= self.film.max_sample_luminance / y;
@@ -232,7 +251,7 @@ impl Renderer {
                     .abs()
                     .floor() as usize;
                 let w = self.filter_table[fy * FILTER_TABLE_SIZE + fx.min(last)];
-                tile.add(Point2i::new(px, py), lw, w);
+                tile.add(Point2i::new(px, py), lw, w, second_half);
             }
         }
     }

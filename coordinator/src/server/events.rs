@@ -117,12 +117,22 @@ fn job_events(update: &JobUpdate) -> Vec<v1::JobEvent> {
                             rgb.extend_from_slice(&c.to_le_bytes());
                         }
                     }
+                    let error_map: Vec<u8> = f
+                        .error
+                        .as_ref()
+                        .and_then(|e| e.per_pixel.get(y0 * w..y1 * w))
+                        .unwrap_or_default()
+                        .iter()
+                        .flat_map(|v| v.to_le_bytes())
+                        .collect();
                     v1::JobEvent {
                         kind: Some(job_event::Kind::Image(v1::JobImage {
                             width: w as u32,
                             height: h as u32,
                             rgb,
                             first_row: y0 as u32,
+                            error_map,
+                            estimated_rel_mse: f.error.as_ref().map(|e| e.rel_mse),
                             spp: f.spp,
                             render_seconds: f.render_seconds,
                             stats: rpc_stats(&f.stats),

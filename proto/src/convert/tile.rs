@@ -1,4 +1,5 @@
-//! Film tiles travel as raw little-endian f32 bytes: four per pixel.
+//! Film tiles travel as raw little-endian f32 bytes: eight per pixel (see
+//! [`Pixel::to_array`]).
 
 use crate::v1;
 use farm_common::film::{FilmTile, Pixel};
@@ -29,11 +30,14 @@ pub enum TileDecodeError {
     },
 }
 
+/// Bytes of one pixel on the wire.
+pub const PIXEL_BYTES: usize = 32;
+
 impl From<&FilmTile> for v1::FilmTile {
     fn from(t: &FilmTile) -> Self {
-        let mut pixels = Vec::with_capacity(t.pixels.len() * 16);
+        let mut pixels = Vec::with_capacity(t.pixels.len() * PIXEL_BYTES);
         for p in &t.pixels {
-            for v in [p.contrib[0], p.contrib[1], p.contrib[2], p.weight] {
+            for v in p.to_array() {
                 pixels.extend_from_slice(&v.to_le_bytes());
             }
         }
@@ -52,16 +56,18 @@ impl TryFrom<&v1::FilmTile> for FilmTile {
             return Err(bad);
         }
         let n = (w * h) as usize;
-        if t.pixels.len() != n * 16 {
-            return Err(TileDecodeError::WrongSize { got: t.pixels.len(), want: n * 16 });
+        if t.pixels.len() != n * PIXEL_BYTES {
+            return Err(TileDecodeError::WrongSize { got: t.pixels.len(), want: n * PIXEL_BYTES });
         }
-        let f = |i: usize| {
-            f32::from_le_bytes([t.pixels[i], t.pixels[i + 1], t.pixels[i + 2], t.pixels[i + 3]])
-        };
-        let pixels = (0..n)
-            .map(|i| Pixel {
-                contrib: [f(i * 16), f(i * 16 + 4), f(i * 16 + 8)],
-                weight: f(i * 16 + 12),
+        let pixels = t
+            .pixels
+            .chunks_exact(PIXEL_BYTES)
+            .map(|b| {
+                let mut v = [0.0f32; 8];
+                for (k, x) in v.iter_mut().enumerate() {
+                    *x = f32::from_le_bytes([b[4 * k], b[4 * k + 1], b[4 * k + 2], b[4 * k + 3]]);
+                }
+                Pixel::from_array(v)
             })
             .collect();
         let pixel_bounds = Bounds2i::new(Point2i::new(t.x0, t.y0), Point2i::new(t.x1, t.y1));
@@ -77,7 +83,8 @@ mod tests {
     #[test]
     fn tiles_round_trip_bit_for_bit() {
         let mut t = FilmTile::new(Bounds2i::new(Point2i::new(-2, 3), Point2i::new(5, 7)));
-        t.add(Point2i::new(0, 4), Spectrum::new(0.1, f32::MIN_POSITIVE, 1e30), 0.3);
+        t.add(Point2i::new(0, 4), Spectrum::new(0.1, f32::MIN_POSITIVE, 1e30), 0.3, false);
+        t.add(Point2i::new(1, 5), Spectrum::new(-2.0, 7.5, 1e-30), -0.25, true);
         let wire = v1::FilmTile::from(&t);
         assert_eq!(FilmTile::try_from(&wire), Ok(t));
     }
@@ -89,7 +96,7 @@ mod tests {
         wire.pixels.pop();
         assert_eq!(
             FilmTile::try_from(&wire),
-            Err(TileDecodeError::WrongSize { got: 63, want: 64 })
+            Err(TileDecodeError::WrongSize { got: 127, want: 128 })
         );
         wire.x1 = -5;
         assert!(matches!(FilmTile::try_from(&wire), Err(TileDecodeError::BadBounds { .. })));

@@ -1,0 +1,166 @@
+//! A render's estimate of its own error, without a reference image.
+//!
+//! Every film pixel keeps its sums over all samples and over the second half
+//! of its samples. The two halves, A and B, are two estimates of the pixel
+//! with half the samples each; the full image F is
+//! about (A + B) / 2, so its variance is about E[(A − B)²] / 4. Dividing by
+//! F² + 0.01 gives the same relative MSE the reference comparison uses
+//! (`metrics::rel_mse`), per pixel and channel.
+
+use farm_common::film::{FilmGeometry, Pixel, TILE_SIZE};
+
+/// Side of the blocks of [`ErrorEstimate::per_tile`].
+const BLOCK: usize = TILE_SIZE as usize;
+use farm_common::geometry::Bounds2i;
+
+/// The denominator's offset in relMSE, as in `metrics::rel_mse`.
+const EPSILON: f64 = 0.01;
+
+/// An estimate of a render's relMSE from its two half-images.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ErrorEstimate {
+    /// Image width in pixels.
+    pub width: usize,
+    /// Image height in pixels.
+    pub height: usize,
+    /// Per pixel (row-major), the estimate averaged over the three channels;
+    /// 0 where a half had no samples.
+    pub per_pixel: Vec<f32>,
+    /// The estimated relMSE of the whole image: the mean of `per_pixel`
+    /// over the pixels both halves reached.
+    pub rel_mse: f64,
+}
+
+impl ErrorEstimate {
+    /// The estimate from a film's sums (row-major over `bounds`, the image's
+    /// pixels) scaled as the image is by `scale`; `None` when no pixel has
+    /// samples in both halves (one sample per pixel).
+    pub fn from_pixels(bounds: Bounds2i, pixels: &[Pixel], scale: f32) -> Option<Self> {
+        let (width, height) = (bounds.width().max(0) as usize, bounds.height().max(0) as usize);
+        let scale = f64::from(scale);
+        let mut per_pixel = Vec::with_capacity(pixels.len());
+        let (mut sum, mut counted) = (0.0f64, 0usize);
+        for p in pixels {
+            let w = f64::from(p.weight);
+            let w_b = f64::from(p.second_weight);
+            let w_a = w - w_b;
+            if w == 0.0 || w_a == 0.0 || w_b == 0.0 {
+                per_pixel.push(0.0);
+                continue;
+            }
+            let mut e = 0.0;
+            for c in 0..3 {
+                let all = f64::from(p.contrib[c]);
+                let second = f64::from(p.second_contrib[c]);
+                // The image clamps negative values (from negative filter lobes) to 0.
+                let full = (all / w).max(0.0) * scale;
+                let a = (all - second) / w_a * scale;
+                let b = second / w_b * scale;
+                let d = a - b;
+                e += d * d / 4.0 / (full * full + EPSILON);
+            }
+            let e = e / 3.0;
+            per_pixel.push(e as f32);
+            sum += e;
+            counted += 1;
+        }
+        (counted > 0).then(|| ErrorEstimate {
+            width,
+            height,
+            per_pixel,
+            rel_mse: sum / counted as f64,
+        })
+    }
+
+    /// The estimate averaged over each 16 × 16 block of the image, row-major
+    /// over the blocks (the film's tile grid when the film is not cropped).
+    pub fn per_tile(&self) -> (usize, usize, Vec<f32>) {
+        let (tw, th) = (self.width.div_ceil(BLOCK), self.height.div_ceil(BLOCK));
+        let mut out = Vec::with_capacity(tw * th);
+        for ty in 0..th {
+            for tx in 0..tw {
+                let (x0, y0) = (tx * BLOCK, ty * BLOCK);
+                let (x1, y1) = ((x0 + BLOCK).min(self.width), (y0 + BLOCK).min(self.height));
+                let mut s = 0.0f64;
+                for y in y0..y1 {
+                    s += self.per_pixel[y * self.width + x0..y * self.width + x1]
+                        .iter()
+                        .map(|&v| f64::from(v))
+                        .sum::<f64>();
+                }
+                out.push((s / ((x1 - x0) * (y1 - y0)) as f64) as f32);
+            }
+        }
+        (tw, th, out)
+    }
+}
+
+/// The estimate for a film whose sums are `pixels` over its cropped bounds.
+pub fn for_film(geometry: &FilmGeometry, pixels: &[Pixel]) -> Option<ErrorEstimate> {
+    ErrorEstimate::from_pixels(geometry.cropped_pixel_bounds, pixels, geometry.scale)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use farm_common::film::FilmTile;
+    use farm_common::geometry::Point2i;
+    use farm_common::rng::Rng;
+    use farm_common::Spectrum;
+
+    /// Renders a synthetic film whose pixels average `n` noisy samples of a
+    /// known value, and returns the estimate and the true relMSE.
+    fn synthetic(n: u32, sigma: f32) -> (Option<ErrorEstimate>, f64) {
+        let b = Bounds2i::new(Point2i::new(0, 0), Point2i::new(64, 48));
+        let mut t = FilmTile::new(b);
+        let mut rng = Rng::new(7);
+        let truth = |p: Point2i| 0.2 + 0.01 * (p.x + p.y) as f32;
+        for p in b.iter() {
+            for i in 0..n {
+                // Uniform noise of standard deviation sigma.
+                let u = (rng.uniform_f32() - 0.5) * sigma * 12f32.sqrt();
+                let v = truth(p) + u;
+                t.add(p, Spectrum::new(v, v, v), 1.0, i >= n / 2);
+            }
+        }
+        let est = ErrorEstimate::from_pixels(b, &t.pixels, 1.0);
+        let mut truth_err = 0.0;
+        for (p, px) in b.iter().zip(&t.pixels) {
+            let r = f64::from(truth(p));
+            let a = f64::from(px.contrib[0] / px.weight);
+            truth_err += (a - r).powi(2) / (r * r + EPSILON);
+        }
+        (est, truth_err / b.area() as f64)
+    }
+
+    #[test]
+    fn the_estimate_tracks_the_true_error_of_noisy_pixels() {
+        for (n, sigma) in [(2, 0.05), (4, 0.1), (16, 0.1), (64, 0.3)] {
+            let (est, truth) = synthetic(n, sigma);
+            let est = est.expect("two or more samples give an estimate").rel_mse;
+            let ratio = est / truth;
+            assert!((0.8..1.25).contains(&ratio), "n={n} σ={sigma}: {est:e} vs true {truth:e}");
+        }
+    }
+
+    #[test]
+    fn one_sample_per_pixel_gives_no_estimate() {
+        assert_eq!(synthetic(1, 0.1).0, None);
+    }
+
+    #[test]
+    fn a_noiseless_render_estimates_zero_and_tiles_average_pixels() {
+        let (est, truth) = synthetic(8, 0.0);
+        let mut est = est.unwrap();
+        // Only f32 rounding of the sums remains.
+        assert!(est.rel_mse < 1e-12 && truth < 1e-12, "{} {truth}", est.rel_mse);
+        est.per_pixel.fill(0.0);
+        est.per_pixel[0] = 256.0;
+        est.per_pixel[17] = 16.0;
+        let (tw, th, tiles) = est.per_tile();
+        assert_eq!((tw, th), (4, 3));
+        assert_eq!(tiles[0], 1.0);
+        assert_eq!(tiles[1], 0.0625);
+        assert!(tiles[2..].iter().all(|&v| v == 0.0));
+    }
+}
