@@ -190,10 +190,10 @@ impl ImageAssembler {
         if self.rows + rows > h {
             return Err(ClientError::Protocol("more image rows than the image has".into()));
         }
-        let rgb: Vec<f32> = f32s(&img.rgb).collect();
         let dst = &mut image.pixels[self.rows * w..(self.rows + rows) * w];
-        for (px, c) in dst.iter_mut().zip(rgb.chunks_exact(3)) {
-            *px = [c[0], c[1], c[2]];
+        for (px, bytes) in dst.iter_mut().zip(img.rgb.chunks_exact(12)) {
+            let mut c = f32s(bytes);
+            *px = [0; 3].map(|_| c.next().unwrap_or(0.0));
         }
         self.error_map.extend(f32s(&img.error_map));
         self.rows += rows;

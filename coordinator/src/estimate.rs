@@ -7,7 +7,7 @@
 //! F² + 0.01 gives the same relative MSE the reference comparison uses
 //! (`metrics::rel_mse`), per pixel and channel.
 
-use farm_common::film::{FilmGeometry, Pixel, TILE_SIZE};
+use farm_common::film::{Pixel, TILE_SIZE};
 
 /// Side of the blocks of [`ErrorEstimate::per_tile`].
 const BLOCK: usize = TILE_SIZE as usize;
@@ -93,11 +93,6 @@ impl ErrorEstimate {
         }
         (tw, th, out)
     }
-}
-
-/// The estimate for a film whose sums are `pixels` over its cropped bounds.
-pub fn for_film(geometry: &FilmGeometry, pixels: &[Pixel]) -> Option<ErrorEstimate> {
-    ErrorEstimate::from_pixels(geometry.cropped_pixel_bounds, pixels, geometry.scale)
 }
 
 #[cfg(test)]

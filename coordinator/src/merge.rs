@@ -93,7 +93,8 @@ impl Film {
 
     /// The render's estimate of its own error (`None` at one sample per pixel).
     pub fn error_estimate(&self) -> Option<ErrorEstimate> {
-        crate::estimate::for_film(&self.geometry, &self.sums.pixels)
+        let g = &self.geometry;
+        ErrorEstimate::from_pixels(g.cropped_pixel_bounds, &self.sums.pixels, g.scale)
     }
 
     /// The image: weighted sums divided by weights, clamped at zero, times

@@ -48,9 +48,14 @@ impl WorkerConfig {
         if self.max_in_flight > 0 {
             self.max_in_flight
         } else {
-            u32::try_from(threads).unwrap_or(u32::MAX / 2).saturating_mul(4).saturating_add(2)
+            default_in_flight(threads)
         }
     }
+}
+
+/// Tiles a worker of `threads` render threads holds when not told: 4 × threads + 2.
+pub fn default_in_flight(threads: usize) -> u32 {
+    u32::try_from(threads.max(1)).unwrap_or(u32::MAX / 2).saturating_mul(4).saturating_add(2)
 }
 
 #[cfg(test)]

@@ -123,6 +123,13 @@ enum SessionEnd {
     Lost(String),
 }
 
+impl SessionEnd {
+    /// The coordinator's side of the stream is gone.
+    fn closed() -> Self {
+        SessionEnd::Lost("the coordinator closed the stream".into())
+    }
+}
+
 /// Everything that outlives a session.
 struct Worker {
     config: WorkerConfig,
@@ -285,7 +292,7 @@ impl Worker {
         // assignments), while the tiles still in progress keep every thread
         // busy over the round trip. Each message costs both sides system
         // calls and wake-ups, which a tile-at-a-time exchange pays per tile.
-        let low_water = (self.pool.threads()).max(self.max_in_flight as usize / 2);
+        let low_water = self.pool.threads().max(self.max_in_flight as usize / 2);
         let mut held: Vec<(Arc<AtomicBool>, bool, TileResult)> = Vec::new();
 
         let end = loop {
@@ -315,7 +322,7 @@ impl Worker {
                         }
                         None => {}
                     },
-                    Ok(None) => break SessionEnd::Lost("the coordinator closed the stream".into()),
+                    Ok(None) => break SessionEnd::closed(),
                     Err(status) => break SessionEnd::Lost(status.to_string()),
                 },
                 Some(joined) = tiles.join_next() => {
@@ -332,16 +339,16 @@ impl Worker {
                         held.push((outcome.cancelled, outcome.rendered, result));
                     }
                     if tiles.len() <= low_water && !self.send_held(&tx, &mut held).await {
-                        break SessionEnd::Lost("the coordinator closed the stream".into());
+                        break SessionEnd::closed();
                     }
                 }
                 _ = heartbeat.tick() => {
                     if !self.send_held(&tx, &mut held).await {
-                        break SessionEnd::Lost("the coordinator closed the stream".into());
+                        break SessionEnd::closed();
                     }
                     let beat = WorkerMessage { kind: Some(ToCoordinator::Heartbeat(Heartbeat {})) };
                     if tx.send(beat).await.is_err() {
-                        break SessionEnd::Lost("the coordinator closed the stream".into());
+                        break SessionEnd::closed();
                     }
                 }
             }

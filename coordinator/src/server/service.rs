@@ -8,6 +8,7 @@ use farm_common::ids::{JobId, WorkerId};
 use farm_proto::convert::{blob_chunks, decode_manifest};
 use farm_proto::v1::{self, coordinator_server::Coordinator, worker_message};
 use farm_proto::PROTOCOL_VERSION;
+use farm_worker::config::default_in_flight;
 use farm_worker::RenderOptions;
 use std::collections::HashMap;
 use std::pin::Pin;
@@ -104,8 +105,11 @@ impl Coordinator for CoordinatorService {
             ));
         };
         let (tx, rx) = mpsc::unbounded_channel();
-        let max_in_flight =
-            if hello.max_in_flight == 0 { 4 * threads.max(1) + 2 } else { hello.max_in_flight };
+        let max_in_flight = if hello.max_in_flight == 0 {
+            default_in_flight(threads as usize)
+        } else {
+            hello.max_in_flight
+        };
         self.send(Event::WorkerJoined { id, name, threads, max_in_flight, tx })?;
         let events = self.events.clone();
         tokio::spawn(async move {
