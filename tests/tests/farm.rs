@@ -226,11 +226,13 @@ async fn a_coordinator_shutting_down_tells_its_clients() {
         let opts = RemoteOptions { spp: Some(SPP), ..Default::default() };
         client::submit(&url, &scene(), &opts, |_, _| {}).await
     });
-    // Wait until the job is queued (there are no workers), then stop the coordinator.
-    for _ in 0..500 {
-        if client::status(&cluster.url).await.is_ok_and(|s| !s.jobs.is_empty()) {
-            break;
-        }
+    // Wait until the job is queued (there are no workers), then stop the
+    // coordinator. Other tests share the cores, so the client's parse and
+    // upload may take a while; stopping before the job is queued would test
+    // a refused connection instead.
+    let deadline = std::time::Instant::now() + Duration::from_secs(120);
+    while !client::status(&cluster.url).await.is_ok_and(|s| !s.jobs.is_empty()) {
+        assert!(std::time::Instant::now() < deadline, "the job was never queued");
         tokio::time::sleep(Duration::from_millis(10)).await;
     }
     cluster.stop().await;
