@@ -1,11 +1,26 @@
 //! A render's estimate of its own error, without a reference image.
 //!
 //! Every film pixel keeps its sums over all samples and over the second half
-//! of its samples. The two halves, A and B, are two estimates of the pixel
-//! with half the samples each; the full image F is
-//! about (A + B) / 2, so its variance is about E[(A − B)²] / 4. Dividing by
-//! F² + 0.01 gives the same relative MSE the reference comparison uses
-//! (`metrics::rel_mse`), per pixel and channel.
+//! of its samples, so the film holds two half-images A and B and the full
+//! image F ≈ (A + B) / 2. Their difference D = F − A = (B − A) / 2 is the
+//! change the second half of the samples made. How E[D²] relates to the
+//! full image's mean squared error depends on how the samples relate:
+//!
+//! - **Independent samples** (pbrt-v3's `random` sampler): A and B are
+//!   independent estimates with the same variance, so E[D²] = Var(A) / 2 =
+//!   Var(F) exactly.
+//! - **Low-discrepancy or stratified samples** (every other sampler): the
+//!   error falls as N^−α with α between 1 (no better than independent
+//!   samples) and 2 (a low-discrepancy set on a smooth integrand). At α = 1
+//!   E[D²] = MSE(N), as above. At α = 2 the second half's error is a quarter
+//!   of the first's and does not cancel it, so E[D²] ≈ MSE(N/2) + MSE(N) =
+//!   5 · MSE(N). The estimate divides by √5, the geometric middle of that
+//!   range, which puts it within a factor of √5 ≈ 2.2 of the truth for any
+//!   rate in between. (Halton renders of the shared scenes fall at about
+//!   α = 1.5.)
+//!
+//! Dividing D² by F² + 0.01 gives the same relative MSE the reference
+//! comparison uses (`metrics::rel_mse`), per pixel and channel.
 
 use farm_common::film::{Pixel, TILE_SIZE};
 
@@ -15,6 +30,35 @@ use farm_common::geometry::Bounds2i;
 
 /// The denominator's offset in relMSE, as in `metrics::rel_mse`.
 const EPSILON: f64 = 0.01;
+
+/// How the samples within a pixel relate to each other (see the module
+/// documentation).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Samples {
+    /// Independent random samples.
+    Independent,
+    /// A low-discrepancy or stratified set.
+    LowDiscrepancy,
+}
+
+impl Samples {
+    /// The samples of a film.
+    pub fn of(independent: bool) -> Self {
+        if independent {
+            Samples::Independent
+        } else {
+            Samples::LowDiscrepancy
+        }
+    }
+
+    /// E[D²] / MSE(N) assumed for this kind of samples.
+    fn difference_per_error(self) -> f64 {
+        match self {
+            Samples::Independent => 1.0,
+            Samples::LowDiscrepancy => 5f64.sqrt(),
+        }
+    }
+}
 
 /// An estimate of a render's relMSE from its two half-images.
 #[derive(Clone, Debug, PartialEq)]
@@ -35,9 +79,15 @@ impl ErrorEstimate {
     /// The estimate from a film's sums (row-major over `bounds`, the image's
     /// pixels) scaled as the image is by `scale`; `None` when no pixel has
     /// samples in both halves (one sample per pixel).
-    pub fn from_pixels(bounds: Bounds2i, pixels: &[Pixel], scale: f32) -> Option<Self> {
+    pub fn from_pixels(
+        bounds: Bounds2i,
+        pixels: &[Pixel],
+        scale: f32,
+        samples: Samples,
+    ) -> Option<Self> {
         let (width, height) = (bounds.width().max(0) as usize, bounds.height().max(0) as usize);
         let scale = f64::from(scale);
+        let divisor = 3.0 * samples.difference_per_error();
         let mut per_pixel = Vec::with_capacity(pixels.len());
         let (mut sum, mut counted) = (0.0f64, 0usize);
         for p in pixels {
@@ -59,7 +109,7 @@ impl ErrorEstimate {
                 let d = a - b;
                 e += d * d / 4.0 / (full * full + EPSILON);
             }
-            let e = e / 3.0;
+            let e = e / divisor;
             per_pixel.push(e as f32);
             sum += e;
             counted += 1;
@@ -118,7 +168,7 @@ mod tests {
                 t.add(p, Spectrum::new(v, v, v), 1.0, i >= n / 2);
             }
         }
-        let est = ErrorEstimate::from_pixels(b, &t.pixels, 1.0);
+        let est = ErrorEstimate::from_pixels(b, &t.pixels, 1.0, Samples::Independent);
         let mut truth_err = 0.0;
         for (p, px) in b.iter().zip(&t.pixels) {
             let r = f64::from(truth(p));
@@ -136,6 +186,23 @@ mod tests {
             let ratio = est / truth;
             assert!((0.8..1.25).contains(&ratio), "n={n} σ={sigma}: {est:e} vs true {truth:e}");
         }
+    }
+
+    #[test]
+    fn low_discrepancy_samples_count_the_halves_difference_as_sqrt5_times_the_error() {
+        let b = Bounds2i::new(Point2i::new(0, 0), Point2i::new(2, 1));
+        let mut t = FilmTile::new(b);
+        for (i, v) in [0.2f32, 0.4, 0.5, 0.3].into_iter().enumerate() {
+            t.add(Point2i::new(i as i32 % 2, 0), Spectrum::new(v, v, v), 1.0, i >= 2);
+        }
+        let at = |s| ErrorEstimate::from_pixels(b, &t.pixels, 1.0, s).unwrap().rel_mse;
+        // Pixel 0: halves 0.2 and 0.5, so D = 0.15 around F = 0.35.
+        let d0 = 0.15f64.powi(2) / (0.35f64.powi(2) + EPSILON);
+        let d1 = 0.05f64.powi(2) / (0.35f64.powi(2) + EPSILON);
+        let independent = at(Samples::Independent);
+        assert!((independent - (d0 + d1) / 2.0).abs() < 1e-6, "{independent}");
+        let ld = at(Samples::LowDiscrepancy);
+        assert!((independent / ld - 5f64.sqrt()).abs() < 1e-9, "{ld}");
     }
 
     #[test]

@@ -7,6 +7,8 @@
 pub mod cli;
 /// Talking to a coordinator.
 pub mod client;
+/// `farm converge`: error against time over increasing sample counts.
+pub mod converge;
 /// How tiles reach workers.
 pub mod dispatch;
 /// Scene errors.

@@ -3,7 +3,7 @@
 //! image's bits — do not depend on how many workers rendered it, how fast
 //! they were, or in what order results came back.
 
-use crate::estimate::ErrorEstimate;
+use crate::estimate::{ErrorEstimate, Samples};
 use crate::output::RgbImage;
 use farm_common::film::{FilmGeometry, FilmTile};
 use farm_common::ids::TileId;
@@ -94,7 +94,8 @@ impl Film {
     /// The render's estimate of its own error (`None` at one sample per pixel).
     pub fn error_estimate(&self) -> Option<ErrorEstimate> {
         let g = &self.geometry;
-        ErrorEstimate::from_pixels(g.cropped_pixel_bounds, &self.sums.pixels, g.scale)
+        let samples = Samples::of(g.independent_samples);
+        ErrorEstimate::from_pixels(g.cropped_pixel_bounds, &self.sums.pixels, g.scale, samples)
     }
 
     /// The image: weighted sums divided by weights, clamped at zero, times

@@ -143,3 +143,43 @@ fn diff_reports_the_error_and_writes_the_difference() {
     assert_eq!(out.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&out.stderr).contains("is 2×1 but"));
 }
+
+/// `farm converge` without a reference renders powers of two up to the
+/// scene's own count, measures each against the highest and writes the
+/// table and the plot.
+#[test]
+fn converge_writes_the_table_and_the_plot() {
+    let dir = temp_dir("converge");
+    let scene = dir.join("ball.pbrt");
+    std::fs::write(
+        &scene,
+        "LookAt 0 0 -4  0 0 0  0 1 0\nCamera \"perspective\" \"float fov\" 40\n\
+         Sampler \"halton\" \"integer pixelsamples\" 8\n\
+         Film \"image\" \"integer xresolution\" 24 \"integer yresolution\" 16\n\
+         WorldBegin\nLightSource \"point\" \"point from\" [0 2 -3] \"rgb I\" [4 4 4]\n\
+         Material \"matte\"\nShape \"sphere\" \"float radius\" 1\nWorldEnd\n",
+    )
+    .expect("write");
+    let (csv, svg) = (dir.join("t.csv"), dir.join("t.svg"));
+    let out = Command::new(env!("CARGO_BIN_EXE_farm"))
+        .args(["converge", "--csv"])
+        .arg(&csv)
+        .arg("--plot")
+        .arg(&svg)
+        .arg(&scene)
+        .output()
+        .expect("run farm");
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(out.status.success(), "{stdout} {}", String::from_utf8_lossy(&out.stderr));
+    let table = std::fs::read_to_string(&csv).expect("csv");
+    let rows: Vec<Vec<&str>> = table.lines().skip(1).map(|l| l.split(',').collect()).collect();
+    let spp: Vec<&str> = rows.iter().map(|r| r[0]).collect();
+    assert_eq!(spp, ["1", "2", "4", "8"], "{table}");
+    // Every render but the reference itself has an error; 1 spp has no estimate.
+    assert!(rows[..3].iter().all(|r| r[5].parse::<f64>().is_ok_and(|v| v > 0.0)), "{table}");
+    assert_eq!(rows[3][5], "", "{table}");
+    assert_eq!(rows[0][6], "", "{table}");
+    assert!(rows[1..].iter().all(|r| r[6].parse::<f64>().is_ok()), "{table}");
+    assert!(std::fs::read_to_string(&svg).expect("svg").contains("<polyline"));
+    assert!(stdout.contains("wrote"), "{stdout}");
+}

@@ -29,6 +29,11 @@ pub struct FilmGeometry {
     pub filename: String,
     /// `diagonal` in millimetres (used by the realistic camera only).
     pub diagonal: f32,
+    /// Whether a pixel's samples are independent of each other (pbrt-v3's
+    /// `random` sampler) rather than a low-discrepancy or stratified set.
+    /// It sets how a render turns its half-images into an error estimate.
+    #[serde(default)]
+    pub independent_samples: bool,
 }
 
 /// Default filter radius of each pbrt-v3 filter.
@@ -86,18 +91,17 @@ impl FilmGeometry {
         });
         let filter_radius =
             Vec2::new(filt.float("xwidth", default_r), filt.float("ywidth", default_r));
-        (
-            FilmGeometry::new(
-                Point2i::new(xres, yres),
-                cropped,
-                filter_radius,
-                scale,
-                max_sample_luminance,
-                filename,
-                diagonal,
-            ),
-            warnings,
-        )
+        let mut film = FilmGeometry::new(
+            Point2i::new(xres, yres),
+            cropped,
+            filter_radius,
+            scale,
+            max_sample_luminance,
+            filename,
+            diagonal,
+        );
+        film.independent_samples = desc.sampler.name == "random";
+        (film, warnings)
     }
 
     /// Geometry from explicit values.
@@ -135,6 +139,7 @@ impl FilmGeometry {
             max_sample_luminance,
             filename,
             diagonal,
+            independent_samples: false,
         }
     }
 
