@@ -41,6 +41,21 @@ impl EFloat {
     pub fn absolute_error(self) -> f32 {
         self.high - self.low
     }
+    /// The same interval with a more accurate value `v` (computed in double
+    /// precision), widened to contain it.
+    #[inline]
+    pub fn with_value(self, v: f32) -> EFloat {
+        EFloat { v, low: self.low.min(v), high: self.high.max(v) }
+    }
+    /// Square root, its interval rounded outwards (negative parts clamp to 0).
+    #[inline]
+    pub fn sqrt(self) -> EFloat {
+        EFloat {
+            v: self.v.max(0.0).sqrt(),
+            low: next_float_down(self.low.max(0.0).sqrt()).max(0.0),
+            high: next_float_up(self.high.max(0.0).sqrt()),
+        }
+    }
 }
 
 impl From<f32> for EFloat {
@@ -138,6 +153,29 @@ pub fn quadratic(a: EFloat, b: EFloat, c: EFloat) -> Option<(EFloat, EFloat)> {
     let root = discrim.sqrt();
     let float_root = EFloat::new(root as f32, (MACHINE_EPSILON as f64 * root) as f32);
     let q = if b.v < 0.0 { -0.5 * (b - float_root) } else { -0.5 * (b + float_root) };
+    let mut t0 = q / a;
+    let mut t1 = c / q;
+    if t0.v > t1.v {
+        std::mem::swap(&mut t0, &mut t1);
+    }
+    Some((t0, t1))
+}
+
+/// Roots `t0 <= t1` of `a t² + b t + c` given a discriminant `b² − 4ac`
+/// computed by the caller in a better-conditioned form (pbrt-v4's sphere).
+/// A negative computed discriminant means no roots, as in pbrt-v3.
+#[inline]
+pub fn quadratic_with_discriminant(
+    a: EFloat,
+    b: EFloat,
+    c: EFloat,
+    discrim: EFloat,
+) -> Option<(EFloat, EFloat)> {
+    if discrim.v < 0.0 {
+        return None;
+    }
+    let root = discrim.sqrt();
+    let q = if b.v < 0.0 { -0.5 * (b - root) } else { -0.5 * (b + root) };
     let mut t0 = q / a;
     let mut t1 = c / q;
     if t0.v > t1.v {
