@@ -196,6 +196,7 @@ fn add_shape(
     warnings: &mut Vec<Warning>,
 ) {
     let params = Params::new(&s.entity.params);
+    let first = warnings.len();
     let shapes: Vec<Shape> = shapes::create(
         &s.entity.name,
         &params,
@@ -203,6 +204,12 @@ fn add_shape(
         s.reverse_orientation,
         warnings,
     );
+    // The shape's warnings point at its directive.
+    for w in &mut warnings[first..] {
+        if w.loc.is_none() {
+            w.loc = Some(s.entity.loc.clone());
+        }
+    }
     warnings.extend(params.unused_warnings());
     let area = match (&s.area_light, lights) {
         (Some(al), Some(lights)) => {

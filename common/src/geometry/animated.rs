@@ -250,6 +250,17 @@ impl AnimatedTransform {
     /// A box holding `b` transformed at every time of the motion
     /// (pbrt-v3 `AnimatedTransform::MotionBounds`).
     pub fn motion_bounds(&self, b: &Bounds3f) -> Bounds3f {
+        if self.motion.is_none() {
+            return self.start.bounds(b);
+        }
+        let out = self.motion_bounds_unpadded(b);
+        // Positions computed at other times round differently: pad by a
+        // few ulps so every sampled position is inside.
+        let pad = out.min.abs().max(out.max.abs()) * super::float::gamma(3);
+        Bounds3f { min: out.min - pad, max: out.max + pad }
+    }
+
+    fn motion_bounds_unpadded(&self, b: &Bounds3f) -> Bounds3f {
         let Some(m) = self.motion.as_deref() else {
             return self.start.bounds(b);
         };

@@ -18,6 +18,6 @@ pub use float::{
 };
 pub use glam::{DMat4, DVec3, Mat4, Vec2, Vec3, Vec4};
 pub use interval::Interval;
-pub use quaternion::Quaternion;
+pub use quaternion::{slerp, Quaternion};
 pub use ray::{Ray, RayDifferential};
 pub use transform::Transform;

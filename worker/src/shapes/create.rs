@@ -117,15 +117,41 @@ struct MeshData {
     shadow_alpha: AlphaMask,
 }
 
+/// Drops a per-vertex attribute holding NaN or infinite values (after the
+/// transform to render space), with a warning naming it.
+fn finite_or_drop<T: Copy>(
+    shape: &str,
+    name: &str,
+    v: Option<Vec<T>>,
+    finite: impl Fn(&T) -> bool,
+    warnings: &mut Vec<Warning>,
+) -> Option<Vec<T>> {
+    let v = v?;
+    let bad = v.iter().filter(|x| !finite(x)).count();
+    if bad == 0 {
+        return Some(v);
+    }
+    warn(
+        warnings,
+        format!(
+            "{shape}: {bad} non-finite \"{name}\" values. Discarding \"{name}\" for this mesh."
+        ),
+    );
+    None
+}
+
 /// Transforms a validated mesh to render space and makes one shape per
-/// triangle, skipping triangles with non-finite vertices.
-fn build_mesh(d: MeshData, pl: &Placement, warnings: &mut Vec<Warning>) -> Vec<Shape> {
+/// triangle, skipping triangles with non-finite vertices and dropping
+/// non-finite normals, tangents and uvs.
+fn build_mesh(shape: &str, d: MeshData, pl: &Placement, warnings: &mut Vec<Warning>) -> Vec<Shape> {
     let t = &pl.render_from_object;
+    let n = d.n.map(|n| n.iter().map(|&v| t.normal(v)).collect());
+    let s = d.s.map(|s| s.iter().map(|&v| t.vector(v)).collect());
     let mesh = Arc::new(TriangleMesh {
         p: d.p.iter().map(|&p| t.point(p)).collect(),
-        n: d.n.map(|n| n.iter().map(|&v| t.normal(v)).collect()),
-        s: d.s.map(|s| s.iter().map(|&v| t.vector(v)).collect()),
-        uv: d.uv,
+        n: finite_or_drop(shape, "N", n, |v: &Vec3| v.is_finite(), warnings),
+        s: finite_or_drop(shape, "S", s, |v: &Vec3| v.is_finite(), warnings),
+        uv: finite_or_drop(shape, "uv", d.uv, |v: &Vec2| v.is_finite(), warnings),
         reverse_orientation: pl.reverse_orientation,
         transform_swaps_handedness: pl.transform_swaps_handedness,
         alpha: d.alpha,
@@ -142,7 +168,13 @@ fn build_mesh(d: MeshData, pl: &Placement, warnings: &mut Vec<Warning>) -> Vec<S
         out.push(Shape::Triangle(Triangle { mesh: mesh.clone(), v }));
     }
     if skipped > 0 {
-        warn(warnings, format!("Skipped {skipped} triangles with non-finite vertex positions."));
+        warn(
+            warnings,
+            format!(
+                "{shape}: skipped {skipped} of {} triangles with non-finite vertex positions.",
+                d.indices.len() / 3
+            ),
+        );
     }
     out
 }
@@ -241,7 +273,7 @@ fn triangle_mesh(params: &Params, pl: &Placement, warnings: &mut Vec<Warning>) -
         alpha,
         shadow_alpha,
     };
-    build_mesh(data, pl, warnings)
+    build_mesh("trianglemesh", data, pl, warnings)
 }
 
 fn loop_subdiv(params: &Params, pl: &Placement, warnings: &mut Vec<Warning>) -> Vec<Shape> {
@@ -293,9 +325,12 @@ fn loop_subdiv(params: &Params, pl: &Placement, warnings: &mut Vec<Warning>) -> 
         })
         .collect();
     match loop_subdivide(levels as u32, &indices, &pts) {
-        Ok((indices, p, n)) => {
-            build_mesh(MeshData { indices, p, n: Some(n), ..Default::default() }, pl, warnings)
-        }
+        Ok((indices, p, n)) => build_mesh(
+            "loopsubdiv",
+            MeshData { indices, p, n: Some(n), ..Default::default() },
+            pl,
+            warnings,
+        ),
         Err(e) => {
             warn(warnings, format!("loopsubdiv: {e}; the mesh is ignored."));
             vec![]
@@ -333,7 +368,12 @@ fn heightfield(params: &Params, pl: &Placement, warnings: &mut Vec<Warning>) -> 
             indices.extend_from_slice(&[vert(x, y), vert(x + 1, y + 1), vert(x, y + 1)]);
         }
     }
-    build_mesh(MeshData { indices, p, uv: Some(uv), ..Default::default() }, pl, warnings)
+    build_mesh(
+        "heightfield",
+        MeshData { indices, p, uv: Some(uv), ..Default::default() },
+        pl,
+        warnings,
+    )
 }
 
 fn lerp3(t: f32, a: Vec3, b: Vec3) -> Vec3 {

@@ -132,6 +132,20 @@ impl Sub<f32> for EFloat {
 #[inline]
 pub fn quadratic(a: EFloat, b: EFloat, c: EFloat) -> Option<(EFloat, EFloat)> {
     let discrim = b.v as f64 * b.v as f64 - 4.0 * a.v as f64 * c.v as f64;
+    quadratic_with_discriminant(a, b, c, discrim)
+}
+
+/// Roots `t0 <= t1` of `a t² + b t + c` given the discriminant `b² − 4ac`,
+/// which the caller may compute in a better-conditioned form (pbrt-v4's
+/// sphere), with pbrt-v3's error bound on its square root. A negative
+/// discriminant means no roots.
+#[inline]
+pub fn quadratic_with_discriminant(
+    a: EFloat,
+    b: EFloat,
+    c: EFloat,
+    discrim: f64,
+) -> Option<(EFloat, EFloat)> {
     if discrim < 0.0 {
         return None;
     }

@@ -1,11 +1,14 @@
 //! Partial spheres (pbrt-v3 `shapes/sphere.cpp`):
 //! `Shape "sphere" "float radius" 1 "float zmin" -1 "float zmax" 1 "float phimax" 360`.
 
-use super::efloat::{nearest_hit, phi_of, quadratic, weingarten, EFloat, Placement};
+use super::efloat::{
+    nearest_hit, phi_of, quadratic_with_discriminant, weingarten, EFloat, Placement,
+};
 use crate::interaction::{Interaction, SurfaceInteraction};
 use crate::sampling::uniform_sample_sphere;
 use farm_common::geometry::{
-    coordinate_system, gamma, offset_ray_origin, spherical_direction, Bounds3f, Ray, Vec2, Vec3,
+    coordinate_system, gamma, offset_ray_origin, spherical_direction, Bounds3f, DVec3, Ray, Vec2,
+    Vec3,
 };
 use std::f32::consts::PI;
 
@@ -62,7 +65,17 @@ impl Sphere {
         let b = 2.0 * (d[0] * o[0] + d[1] * o[1] + d[2] * o[2]);
         let rad = EFloat::from(self.radius);
         let c = o[0] * o[0] + o[1] * o[1] + o[2] * o[2] - rad * rad;
-        let (t0, t1) = quadratic(a, b, c)?;
+        // b² − 4ac cancels catastrophically for rays from far away; pbrt-v4
+        // writes it as 4a(r² − |v|²), v the centre-to-closest-point vector.
+        // Its value is computed in double precision from the ray, accurate
+        // both far away and for short chords.
+        let od = DVec3::new(o[0].v as f64, o[1].v as f64, o[2].v as f64);
+        let dd = DVec3::new(d[0].v as f64, d[1].v as f64, d[2].v as f64);
+        let a64 = dd.length_squared();
+        let len64 = (od - dd * (dd.dot(od) / a64)).length();
+        let r64 = self.radius as f64;
+        let discrim = 4.0 * a64 * (r64 + len64) * (r64 - len64);
+        let (t0, t1) = quadratic_with_discriminant(a, b, c, discrim)?;
         let radius = self.radius;
         let eval = |t: f32| {
             // Reproject the hit onto the sphere.
