@@ -147,6 +147,10 @@ pub struct SubmitArgs {
     /// Print nothing but errors.
     #[arg(short, long)]
     pub quiet: bool,
+    /// Also print which features the scene uses and which per-ray work the
+    /// render skipped.
+    #[arg(short, long)]
+    pub verbose: bool,
     /// Render on the farm run by this coordinator (e.g. http://host:7878)
     /// instead of in this process.
     #[arg(long, env = "FARM_COORDINATOR")]
@@ -390,7 +394,12 @@ fn progress_bar(quiet: bool) -> ProgressBar {
 }
 
 fn run_submit(args: SubmitArgs) -> ExitCode {
-    let opts = SubmitOptions { output: args.output.clone(), spp: args.spp, threads: args.threads };
+    let opts = SubmitOptions {
+        output: args.output.clone(),
+        spp: args.spp,
+        threads: args.threads,
+        all_paths: false,
+    };
     let bar = progress_bar(args.quiet);
     let started = std::time::Instant::now();
     let result = submit::render(&args.scene, &opts, |p| {
@@ -564,6 +573,11 @@ fn finish(args: &SubmitArgs, summary: submit::RenderSummary) -> ExitCode {
             "warning: {bad} samples had bad radiance and were set to black ({} NaN, {} infinite, {} negative)",
             s.nan_samples, s.inf_samples, s.negative_samples
         );
+    }
+    if args.verbose && !args.quiet {
+        for line in summary.features.describe() {
+            println!("{line}");
+        }
     }
     if !args.quiet {
         let secs = summary.render_seconds.max(1e-9);

@@ -9,6 +9,7 @@ use farm_common::stats::RayStats;
 use farm_proto::convert::{blob_chunks, encode_scene, Blob};
 use farm_proto::v1::{self, coordinator_client::CoordinatorClient, job_event};
 use farm_proto::{MAX_MESSAGE_SIZE, PROTOCOL_VERSION};
+use farm_worker::features::Features;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 use tonic::transport::Channel;
@@ -137,6 +138,7 @@ pub async fn submit(
                     spp: img.spp,
                     startup_seconds,
                     render_seconds: img.render_seconds,
+                    features: Features::of(&desc),
                     scene_name: desc.name,
                     warnings,
                 });

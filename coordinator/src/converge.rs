@@ -98,7 +98,7 @@ pub fn run(
         None => None,
     };
     let render = |spp: Option<u32>, progress: &mut dyn FnMut(u32, &Progress)| {
-        let o = SubmitOptions { output: None, spp, threads: opts.threads };
+        let o = SubmitOptions { output: None, spp, threads: opts.threads, all_paths: false };
         let label = spp.unwrap_or(0);
         submit::render(scene, &o, |p| progress(label, p))
     };

@@ -9,6 +9,7 @@ use crate::job::{self, JobError, Progress};
 use crate::output::{self, ImageError, ImageMetadata, RgbImage};
 use farm_common::scene::Warning;
 use farm_worker::error::BuildError;
+use farm_worker::features::Features;
 use farm_worker::integrator::RayStats;
 use farm_worker::{RenderOptions, Renderer};
 use std::path::{Path, PathBuf};
@@ -24,6 +25,9 @@ pub struct SubmitOptions {
     pub spp: Option<u32>,
     /// Render threads (0 = one per core).
     pub threads: usize,
+    /// Compute ray differentials even where the scene does not use them
+    /// (a benchmark's baseline).
+    pub all_paths: bool,
 }
 
 /// What a finished render produced.
@@ -43,6 +47,8 @@ pub struct RenderSummary {
     pub startup_seconds: f64,
     /// Seconds spent rendering tiles.
     pub render_seconds: f64,
+    /// What the scene uses and so what the render skipped.
+    pub features: Features,
     /// The scene's name.
     pub scene_name: String,
     /// What was ignored in the scene.
@@ -78,11 +84,13 @@ pub fn render(
 ) -> Result<RenderSummary, SubmitError> {
     let start = Instant::now();
     let (desc, mut warnings) = crate::scene::parse_file(scene)?;
-    let (renderer, build_warnings) = Renderer::new(&desc, &RenderOptions { spp: opts.spp })?;
+    let (renderer, build_warnings) =
+        Renderer::new(&desc, &RenderOptions { spp: opts.spp, all_paths: opts.all_paths })?;
     warnings.extend(build_warnings);
     let startup_seconds = start.elapsed().as_secs_f64();
     let output = opts.output.clone().unwrap_or_else(|| PathBuf::from(&renderer.film.filename));
     let spp = renderer.samples_per_pixel();
+    let features = renderer.features.clone();
     let geometry = renderer.film.clone();
     let dispatcher = LocalDispatcher::new(Arc::new(renderer), opts.threads)?;
     let t = Instant::now();
@@ -95,6 +103,7 @@ pub fn render(
         spp,
         startup_seconds,
         render_seconds: t.elapsed().as_secs_f64(),
+        features,
         scene_name: desc.name,
         warnings,
     })

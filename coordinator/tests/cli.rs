@@ -183,3 +183,23 @@ fn converge_writes_the_table_and_the_plot() {
     assert!(std::fs::read_to_string(&svg).expect("svg").contains("<polyline"));
     assert!(stdout.contains("wrote"), "{stdout}");
 }
+
+/// `farm submit --verbose` says which features the scene uses and what the
+/// render skipped.
+#[test]
+fn verbose_submit_lists_features_and_skipped_paths() {
+    let dir = temp_dir("verbose");
+    let scene = dir.join("plain.pbrt");
+    std::fs::write(&scene, format!("{HEAD}Shape \"sphere\"\nWorldEnd\n")).expect("write");
+    let out = Command::new(env!("CARGO_BIN_EXE_farm"))
+        .args(["submit", "--verbose", "--spp", "1", "-o"])
+        .arg(dir.join("plain.pfm"))
+        .arg(&scene)
+        .output()
+        .expect("run farm");
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(out.status.success(), "{stdout} {}", String::from_utf8_lossy(&out.stderr));
+    for want in ["ray differentials: skipped", "motion: skipped", "textures: none"] {
+        assert!(stdout.contains(want), "{want:?} missing from {stdout}");
+    }
+}

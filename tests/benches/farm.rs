@@ -356,7 +356,8 @@ fn capacity_table(rt: &Runtime) {
     std::fs::write(&scene, CAPACITY_SCENE).expect("write scene");
     let (desc, _) = farm_coordinator::scene::parse_str(CAPACITY_SCENE, "capacity.pbrt", &dir)
         .expect("capacity scene parses");
-    let (geometry, ..) = film_and_sampler(&desc, &RenderOptions { spp: None });
+    let (geometry, ..) =
+        film_and_sampler(&desc, &RenderOptions { spp: None, ..Default::default() });
     let n = geometry.tile_count();
     let tiles = Arc::new(Tiles::new(geometry));
     println!(

@@ -140,9 +140,11 @@ async fn duplicates_bad_tiles_and_unknown_jobs_are_refused_without_harm() {
         panic!("expected a second assignment");
     };
     let (desc, _) = farm_coordinator::scene::parse_file(&scene()).expect("scene");
-    let (renderer, _) =
-        farm_worker::Renderer::new(&desc, &farm_worker::RenderOptions { spp: Some(SPP) })
-            .expect("renderer");
+    let (renderer, _) = farm_worker::Renderer::new(
+        &desc,
+        &farm_worker::RenderOptions { spp: Some(SPP), ..Default::default() },
+    )
+    .expect("renderer");
     let (tile, _) = renderer.render_tile(farm_common::ids::TileId(b.tile));
     for _ in 0..2 {
         tx.send(v1::WorkerMessage {

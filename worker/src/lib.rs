@@ -14,6 +14,8 @@ pub mod cameras;
 pub mod config;
 /// Errors building a renderer.
 pub mod error;
+/// What a scene uses, and so what a render can skip.
+pub mod features;
 /// Reconstruction filters.
 pub mod filters;
 /// The grpc.health.v1 service for probes.

@@ -5,12 +5,15 @@
 
 use crate::cameras::{self, Camera};
 use crate::error::BuildError;
+use crate::features::Features;
 use crate::filters::{self, Filter};
 use crate::integrator::{RayStats, Whitted};
 use crate::sampler::{self, Sampler};
 use crate::scene::Scene;
 use farm_common::film::{FilmGeometry, FilmTile};
-use farm_common::geometry::{AnimatedTransform, Bounds2i, DMat4, DVec3, Point2i, Transform, Vec2};
+use farm_common::geometry::{
+    AnimatedTransform, Bounds2i, DMat4, DVec3, Point2i, RayDifferential, Transform, Vec2,
+};
 use farm_common::ids::TileId;
 use farm_common::scene::{Entity, Params, SceneDescription, Warning};
 use farm_common::Spectrum;
@@ -23,6 +26,9 @@ const FILTER_TABLE_SIZE: usize = 16;
 pub struct RenderOptions {
     /// Samples per pixel instead of the sampler's `pixelsamples`.
     pub spp: Option<u32>,
+    /// Compute ray differentials even when the scene does not use them
+    /// (the baseline of the benchmark that measures the saving).
+    pub all_paths: bool,
 }
 
 /// The film layout (with the radius of the filter actually used), the
@@ -67,6 +73,10 @@ pub struct Renderer {
     pub integrator: Whitted,
     /// Pixels the integrator renders (`pixelbounds`, default all samples).
     pub pixel_bounds: Bounds2i,
+    /// What the scene uses.
+    pub features: Features,
+    /// Whether camera rays carry differentials.
+    differentials: bool,
     filter_table: [f32; FILTER_TABLE_SIZE * FILTER_TABLE_SIZE],
     inv_filter_radius: Vec2,
 }
@@ -134,6 +144,8 @@ impl Renderer {
         }
 
         let scene = Scene::build(desc, render_from_world, &mut warnings)?;
+        let features = Features::of(desc);
+        let differentials = features.needs_differentials() || opts.all_paths;
 
         // Filter values at the centres of a 16×16 grid over one quadrant.
         let r = filter.radius();
@@ -154,6 +166,8 @@ impl Renderer {
             film,
             integrator: Whitted { max_depth },
             pixel_bounds,
+            features,
+            differentials,
             filter_table,
             inv_filter_radius: Vec2::ONE / r,
         };
@@ -188,8 +202,14 @@ impl Renderer {
             loop {
                 let second_half = index >= half;
                 let cs = sampler.camera_sample(pixel);
-                let (weight, mut ray) = self.camera.generate_ray_differential(&cs);
-                ray.scale_differentials(diff_scale);
+                let (weight, ray) = if self.differentials {
+                    let (weight, mut ray) = self.camera.generate_ray_differential(&cs);
+                    ray.scale_differentials(diff_scale);
+                    (weight, ray)
+                } else {
+                    let (weight, ray) = self.camera.generate_ray(&cs);
+                    (weight, RayDifferential::new(ray))
+                };
                 stats.camera_rays += 1;
                 let mut l = Spectrum::ZERO;
                 if weight > 0.0 {

@@ -155,7 +155,7 @@ impl RendererCache {
             desc.assets.insert(key, data.as_ref().clone());
         }
 
-        let opts = RenderOptions { spp: (spp > 0).then_some(spp) };
+        let opts = RenderOptions { spp: (spp > 0).then_some(spp), ..Default::default() };
         let built = pool.run(move || Renderer::new(&desc, &opts)).await;
         let (renderer, warnings) = built
             .map_err(|e| bad_scene(format!("building the scene: {e}")))?

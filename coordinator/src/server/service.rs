@@ -181,8 +181,10 @@ impl Coordinator for CoordinatorService {
             }
         }
         let spp_override = (r.spp > 0).then_some(r.spp);
-        let (geometry, _, sampler, _) =
-            farm_worker::render::film_and_sampler(&desc, &RenderOptions { spp: spp_override });
+        let (geometry, _, sampler, _) = farm_worker::render::film_and_sampler(
+            &desc,
+            &RenderOptions { spp: spp_override, ..Default::default() },
+        );
         if geometry.cropped_pixel_bounds.is_empty() {
             return Err(Status::invalid_argument("the film has no pixels"));
         }

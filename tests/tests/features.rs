@@ -1,0 +1,125 @@
+//! A scene pays only for what it uses: the analysis finds the features a
+//! scene uses, skipping ray differentials leaves the image bit for bit, and
+//! the analysis agrees with the textures the renderer builds.
+
+use farm_coordinator::submit::SubmitOptions;
+use farm_tests::render_text;
+use farm_worker::features::Features;
+use farm_worker::{RenderOptions, Renderer};
+
+const HEAD: &str = "LookAt 0 1 -4  0 0 0  0 1 0\nCamera \"perspective\" \"float fov\" 45\n\
+    Sampler \"halton\" \"integer pixelsamples\" 4\n\
+    Film \"image\" \"integer xresolution\" 48 \"integer yresolution\" 32\nWorldBegin\n\
+    LightSource \"point\" \"point from\" [1 3 -3] \"rgb I\" [10 10 10]\n";
+
+const GLASS_AND_PLANE: &str = "Material \"glass\"\nShape \"sphere\" \"float radius\" 0.7\n\
+    Material \"plastic\" \"rgb Kd\" [0.3 0.5 0.2]\n\
+    Shape \"trianglemesh\" \"integer indices\" [0 1 2 0 2 3] \
+    \"point P\" [-5 -1 -5  5 -1 -5  5 -1 5  -5 -1 5] \"float uv\" [0 0 1 0 1 1 0 1]\nWorldEnd\n";
+
+/// Parses `source` and builds it; returns the analysis and whether the
+/// built texture set needs differentials.
+fn analyse(name: &str, source: &str) -> (Features, bool) {
+    let dir = std::env::temp_dir().join(format!("farm-features-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).expect("temp dir");
+    let path = dir.join(format!("{name}.pbrt"));
+    std::fs::write(&path, source).expect("write");
+    let (desc, _) = farm_coordinator::scene::parse_file(&path).expect("parses");
+    let (r, _) = Renderer::new(&desc, &RenderOptions::default()).expect("builds");
+    let built = farm_worker::textures::uses_differentials(&r.scene.textures);
+    (r.features.clone(), built)
+}
+
+#[test]
+fn an_untextured_static_scene_skips_differentials_and_renders_the_same_bits() {
+    let scene = format!("{HEAD}{GLASS_AND_PLANE}");
+    let (features, _) = analyse("plain", &scene);
+    assert!(!features.needs_differentials());
+    assert_eq!((features.textures, features.moving, features.moving_camera), (0, 0, false));
+    let lines = features.describe().join("\n");
+    assert!(lines.contains("ray differentials: skipped"), "{lines}");
+    assert!(lines.contains("motion: skipped"), "{lines}");
+
+    let skipped = render_text("plain", &scene, &SubmitOptions::default());
+    let all =
+        render_text("plain", &scene, &SubmitOptions { all_paths: true, ..Default::default() });
+    let bits = |s: &farm_coordinator::submit::RenderSummary| -> Vec<u32> {
+        s.image.pixels.iter().flat_map(|p| p.map(f32::to_bits)).collect()
+    };
+    assert!(skipped.image.pixels.iter().any(|p| p[1] > 0.0), "image is not black");
+    assert_eq!(bits(&skipped), bits(&all), "skipping differentials changed the image");
+    assert_eq!(skipped.stats.total_rays(), all.stats.total_rays());
+}
+
+#[test]
+fn filtering_textures_and_bump_maps_keep_differentials() {
+    let with = |decl: &str, material: &str| {
+        format!(
+            "{HEAD}{decl}\n{material}\nShape \"trianglemesh\" \"integer indices\" [0 1 2 0 2 3] \
+             \"point P\" [-5 -1 -5  5 -1 -5  5 -1 5  -5 -1 5] \"float uv\" [0 0 1 0 1 1 0 1]\nWorldEnd\n"
+        )
+    };
+    let checks =
+        "Texture \"c\" \"spectrum\" \"checkerboard\" \"float uscale\" 8 \"float vscale\" 8";
+    let cases = [
+        ("closedform", with(checks, "Material \"matte\" \"texture Kd\" \"c\""), true, true),
+        (
+            "aa-none",
+            with(
+                &format!("{checks} \"string aamode\" \"none\""),
+                "Material \"matte\" \"texture Kd\" \"c\"",
+            ),
+            false,
+            false,
+        ),
+        (
+            "checks-3d",
+            with(
+                "Texture \"c\" \"spectrum\" \"checkerboard\" \"integer dimension\" 3",
+                "Material \"matte\" \"texture Kd\" \"c\"",
+            ),
+            false,
+            false,
+        ),
+        (
+            "fbm",
+            with("Texture \"n\" \"float\" \"fbm\"", "Material \"matte\" \"texture sigma\" \"n\""),
+            true,
+            true,
+        ),
+        (
+            // A bump map of a constant texture: its finite differences are
+            // still scaled by the footprint.
+            "bump",
+            with(
+                "Texture \"b\" \"float\" \"constant\" \"float value\" 0.1",
+                "Material \"matte\" \"texture bumpmap\" \"b\"",
+            ),
+            false,
+            true,
+        ),
+    ];
+    for (name, scene, filtering, needs) in cases {
+        let (features, built) = analyse(name, &scene);
+        assert_eq!(!features.filtering_textures.is_empty(), filtering, "{name}: {features:?}");
+        assert_eq!(built, filtering, "{name}: the built textures disagree with the analysis");
+        assert_eq!(features.needs_differentials(), needs, "{name}: {features:?}");
+        assert_eq!(features.textures, 1, "{name}");
+    }
+}
+
+#[test]
+fn moving_shapes_and_cameras_are_found() {
+    let scene = "LookAt 0 1 -4  0 0 0  0 1 0\nActiveTransform EndTime\nTranslate 0.1 0 0\nActiveTransform All\n\
+         Camera \"perspective\"\nFilm \"image\" \"integer xresolution\" 8 \"integer yresolution\" 8\n\
+         WorldBegin\nAttributeBegin\nActiveTransform EndTime\nTranslate 0 1 0\nActiveTransform All\n\
+         Shape \"sphere\"\nAttributeEnd\nShape \"sphere\" \"float radius\" 0.5\nWorldEnd\n";
+    let (features, _) = analyse("moving", scene);
+    assert_eq!(features.moving, 1);
+    assert!(features.moving_camera);
+    let lines = features.describe().join("\n");
+    assert!(
+        lines.contains("motion: 1 moving shapes, lights or instances, moving camera"),
+        "{lines}"
+    );
+}
