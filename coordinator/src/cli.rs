@@ -35,6 +35,39 @@ pub enum Command {
     /// Render a scene at increasing sample counts and tabulate and plot its
     /// error against render time.
     Converge(ConvergeArgs),
+    /// Render every shared pbrt-v3 scene found and tabulate time, rays and
+    /// peak memory next to pbrt-v3's.
+    Bench(BenchArgs),
+    /// Render one scene and print its measurements (used by `farm bench`).
+    #[command(hide = true)]
+    BenchOne(BenchOneArgs),
+}
+
+/// Arguments of `farm bench`.
+#[derive(Debug, clap::Args)]
+pub struct BenchArgs {
+    /// The shared folder (with scenes/ and reference/README.md).
+    #[arg(long, env = "FARM_SHARED", default_value = "../shared")]
+    pub shared: PathBuf,
+    /// Only this scene (a folder name under scenes/).
+    #[arg(long)]
+    pub scene: Option<String>,
+    /// Render threads (default: one per core).
+    #[arg(long, default_value_t = 0)]
+    pub threads: usize,
+    /// Where to write the table as CSV.
+    #[arg(long, value_name = "FILE", default_value = "farm-bench.csv")]
+    pub csv: PathBuf,
+}
+
+/// Arguments of `farm bench-one`.
+#[derive(Debug, clap::Args)]
+pub struct BenchOneArgs {
+    /// The scene.
+    pub scene: PathBuf,
+    /// Render threads (0: one per core).
+    #[arg(long, default_value_t = 0)]
+    pub threads: usize,
 }
 
 /// Arguments of `farm converge`.
@@ -178,6 +211,11 @@ pub fn run(cli: Cli) -> ExitCode {
         Command::Cancel(args) => block_on(run_cancel(args)),
         Command::Diff(args) => run_diff(&args),
         Command::Converge(args) => run_converge(&args),
+        Command::Bench(args) => run_bench(&args),
+        Command::BenchOne(args) => match crate::bench::measure_here(&args.scene, args.threads) {
+            Ok(_) => ExitCode::SUCCESS,
+            Err(e) => fail(&e),
+        },
         Command::Health(args) => block_on(async move {
             match crate::client::healthy(&args.addr).await {
                 Ok(true) => ExitCode::SUCCESS,
@@ -539,6 +577,72 @@ fn run_converge(args: &ConvergeArgs) -> ExitCode {
             );
         }
         println!("wrote {} and {}", csv.display(), plot.display());
+    }
+    ExitCode::SUCCESS
+}
+
+/// `farm bench`: one child process per shared scene; prints the table as
+/// rows finish and writes the CSV.
+fn run_bench(args: &BenchArgs) -> ExitCode {
+    use crate::bench;
+    if !args.shared.join("reference/README.md").is_file() {
+        eprintln!(
+            "error: {} has no reference/README.md (give the shared folder with --shared)",
+            args.shared.display()
+        );
+        return ExitCode::from(EXIT_BAD_INPUT);
+    }
+    let exe = match std::env::current_exe() {
+        Ok(e) => e,
+        Err(e) => {
+            eprintln!("error: cannot find the farm binary: {e}");
+            return ExitCode::FAILURE;
+        }
+    };
+    println!(
+        "{:<30} {:>4} {:>7} {:>7} {:>7} {:>7} {:>6} {:>8} {:>8} {:>6} {:>6}",
+        "scene",
+        "spp",
+        "wall s",
+        "pbrt",
+        "CPU s",
+        "pbrt",
+        "ratio",
+        "start s",
+        "Mrays/s",
+        "RSS MB",
+        "pbrt"
+    );
+    let rows = bench::run(&exe, &args.shared, args.scene.as_deref(), args.threads, |r| {
+        let p = r.scene.pbrt.clone().unwrap_or_default();
+        match &r.measured {
+            Ok(m) => println!(
+                "{:<30} {:>4} {:>7.2} {:>7.2} {:>7.2} {:>7.2} {:>6.2} {:>8.3} {:>8.2} {:>6.0} {:>6.0}",
+                r.scene.scene,
+                m.spp,
+                m.wall,
+                p.wall,
+                m.cpu,
+                p.cpu,
+                if p.cpu > 0.0 { m.cpu / p.cpu } else { f64::NAN },
+                m.startup,
+                m.rays_per_second / 1e6,
+                m.peak_rss_mb,
+                p.rss_mb
+            ),
+            Err(e) => println!("{:<30} {e}", r.scene.scene),
+        }
+    });
+    if let Some(g) = bench::cpu_ratio_geomean(&rows) {
+        println!("geometric mean of CPU s / pbrt-v3 CPU s: {g:.3}");
+    }
+    if let Err(e) = std::fs::write(&args.csv, bench::csv(&rows)) {
+        eprintln!("error: cannot write {}: {e}", args.csv.display());
+        return ExitCode::FAILURE;
+    }
+    println!("wrote {}", args.csv.display());
+    if rows.iter().any(|r| r.measured.is_err()) {
+        return ExitCode::FAILURE;
     }
     ExitCode::SUCCESS
 }

@@ -3,6 +3,8 @@
 //! results in tile order and writes the image. The `farm` binary lives here.
 #![warn(missing_docs)]
 
+/// `farm bench`: shared scenes against pbrt-v3's time and memory.
+pub mod bench;
 /// The `farm` command line.
 pub mod cli;
 /// Talking to a coordinator.

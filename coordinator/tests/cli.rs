@@ -203,3 +203,52 @@ fn verbose_submit_lists_features_and_skipped_paths() {
         assert!(stdout.contains(want), "{want:?} missing from {stdout}");
     }
 }
+
+/// `farm bench` renders each scene of a shared folder's reference table in
+/// its own process and writes its time, rays and peak memory beside
+/// pbrt-v3's.
+#[test]
+fn bench_tabulates_each_reference_scene() {
+    let dir = temp_dir("bench");
+    std::fs::create_dir_all(dir.join("scenes/ball")).expect("dirs");
+    std::fs::create_dir_all(dir.join("reference")).expect("dirs");
+    std::fs::write(
+        dir.join("scenes/ball/ball-whitted.pbrt"),
+        format!("{HEAD}Material \"matte\"\nShape \"sphere\"\nWorldEnd\n"),
+    )
+    .expect("write");
+    std::fs::write(
+        dir.join("reference/README.md"),
+        "| scene | file | res | sampler, spp | relMSE | gt | wall | CPU | RSS | cam | shadow |\n\
+         |---|---|---|---|---|---|---|---|---|---|---|\n\
+         | ball | ball-whitted.pbrt | 8×8 | halton 16 | 1e-3 | gt256 | 0.5 | 1.0 | 10 | 1.1k | 2k |\n",
+    )
+    .expect("write");
+    let csv = dir.join("bench.csv");
+    let out = Command::new(env!("CARGO_BIN_EXE_farm"))
+        .args(["bench", "--threads", "1", "--shared"])
+        .arg(&dir)
+        .arg("--csv")
+        .arg(&csv)
+        .output()
+        .expect("run farm");
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(out.status.success(), "{stdout} {}", String::from_utf8_lossy(&out.stderr));
+    let table = std::fs::read_to_string(&csv).expect("csv");
+    let row: Vec<&str> = table.lines().nth(1).expect("a row").split(',').collect();
+    assert_eq!(row[0], "ball");
+    let num = |i: usize| row[i].parse::<f64>().unwrap_or_else(|_| panic!("column {i}: {table}"));
+    // 8×8 pixels at 16 spp grown by the filter: camera rays at least 1024.
+    assert!(num(5) >= 1024.0, "{table}");
+    assert!(num(3) > 0.0 && num(7) > 1.0, "CPU seconds and peak RSS: {table}");
+    assert_eq!((num(8), num(9), num(10)), (0.5, 1.0, 10.0), "{table}");
+    assert!(stdout.contains("geometric mean"), "{stdout}");
+
+    // A folder without the reference table is bad input.
+    let out = Command::new(env!("CARGO_BIN_EXE_farm"))
+        .args(["bench", "--shared"])
+        .arg(dir.join("scenes"))
+        .output()
+        .expect("run farm");
+    assert_eq!(out.status.code(), Some(2));
+}
