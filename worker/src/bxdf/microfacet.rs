@@ -37,13 +37,18 @@ pub fn roughness_to_alpha(roughness: f32) -> f32 {
     1.62142 + 0.819955 * x + 0.1734 * x * x + 0.0171201 * x * x * x + 0.000640711 * x * x * x * x
 }
 
+/// The smallest α a distribution keeps. pbrt-v3 takes α = 0 (roughness 0
+/// with `remaproughness false`) as given, and D(ωh) becomes 0·∞ = NaN; like
+/// pbrt-v4 we clamp it, which leaves a highlight of negligible size.
+const MIN_ALPHA: f32 = 1e-4;
+
 impl MicrofacetDistribution {
     /// A Trowbridge–Reitz distribution sampling visible normals.
     pub fn trowbridge_reitz(alpha_x: f32, alpha_y: f32) -> Self {
         MicrofacetDistribution {
             kind: DistributionKind::TrowbridgeReitz,
-            alpha_x,
-            alpha_y,
+            alpha_x: alpha_x.max(MIN_ALPHA),
+            alpha_y: alpha_y.max(MIN_ALPHA),
             sample_visible_area: true,
         }
     }
@@ -52,8 +57,8 @@ impl MicrofacetDistribution {
     pub fn beckmann(alpha_x: f32, alpha_y: f32) -> Self {
         MicrofacetDistribution {
             kind: DistributionKind::Beckmann,
-            alpha_x,
-            alpha_y,
+            alpha_x: alpha_x.max(MIN_ALPHA),
+            alpha_y: alpha_y.max(MIN_ALPHA),
             sample_visible_area: true,
         }
     }
