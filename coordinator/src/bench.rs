@@ -177,40 +177,77 @@ pub struct BenchRow {
     pub scene: ReferenceScene,
     /// Our measurement, or why it failed.
     pub measured: Result<Measured, String>,
+    /// The same render on one thread, when thread scaling was asked for.
+    pub one_thread: Option<Result<Measured, String>>,
 }
 
-/// Renders each scene in a child process (`exe bench-one SCENE`) and
-/// collects the measurements; `only` restricts to one scene folder.
+impl BenchRow {
+    /// Wall-time speed-up of the measured render over the one-thread one.
+    pub fn speedup(&self) -> Option<f64> {
+        match (&self.measured, &self.one_thread) {
+            (Ok(m), Some(Ok(one))) if m.wall > 0.0 => Some(one.wall / m.wall),
+            _ => None,
+        }
+    }
+}
+
+/// The fastest of `runs` renders of `scene`, each in a child process.
+fn best_of(exe: &Path, scene: &Path, threads: usize, runs: usize) -> Result<Measured, String> {
+    let mut best: Option<Measured> = None;
+    for _ in 0..runs.max(1) {
+        let m = measure_child(exe, scene, threads)?;
+        if best.as_ref().is_none_or(|b| m.wall < b.wall) {
+            best = Some(m);
+        }
+    }
+    best.ok_or_else(|| "no run".to_string())
+}
+
+/// Renders `scene` in a child process (`exe bench-one SCENE`).
+fn measure_child(exe: &Path, scene: &Path, threads: usize) -> Result<Measured, String> {
+    let out = Command::new(exe)
+        .arg("bench-one")
+        .arg(scene)
+        .args(["--threads", &threads.to_string()])
+        .output()
+        .map_err(|e| format!("cannot run {}: {e}", exe.display()))?;
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    Measured::from_output(&stdout).ok_or_else(|| {
+        let err = String::from_utf8_lossy(&out.stderr);
+        let last = err.lines().rev().find(|l| l.starts_with("error")).unwrap_or("");
+        format!("render failed ({}) {last}", out.status)
+    })
+}
+
+/// What `run` measures.
+#[derive(Clone, Debug, Default)]
+pub struct BenchOptions {
+    /// Only this scene folder.
+    pub only: Option<String>,
+    /// Render threads (0 = one per core).
+    pub threads: usize,
+    /// Also render each scene on one thread.
+    pub scaling: bool,
+    /// Renders per measurement; the fastest is kept (the machine may be shared).
+    pub runs: usize,
+}
+
+/// Renders each scene in child processes and collects the measurements.
 pub fn run(
     exe: &Path,
     shared: &Path,
-    only: Option<&str>,
-    threads: usize,
+    opts: &BenchOptions,
     mut each: impl FnMut(&BenchRow),
 ) -> Vec<BenchRow> {
     let mut rows = Vec::new();
     for s in reference_scenes(shared) {
-        if only.is_some_and(|o| o != s.scene) {
+        if opts.only.as_ref().is_some_and(|o| *o != s.scene) {
             continue;
         }
         let path: PathBuf = shared.join("scenes").join(&s.scene).join(&s.file);
-        let out = Command::new(exe)
-            .arg("bench-one")
-            .arg(&path)
-            .args(["--threads", &threads.to_string()])
-            .output();
-        let measured = match out {
-            Err(e) => Err(format!("cannot run {}: {e}", exe.display())),
-            Ok(o) => {
-                let stdout = String::from_utf8_lossy(&o.stdout);
-                Measured::from_output(&stdout).ok_or_else(|| {
-                    let err = String::from_utf8_lossy(&o.stderr);
-                    let last = err.lines().rev().find(|l| l.starts_with("error")).unwrap_or("");
-                    format!("render failed ({}) {last}", o.status)
-                })
-            }
-        };
-        let row = BenchRow { scene: s, measured };
+        let one_thread = opts.scaling.then(|| best_of(exe, &path, 1, opts.runs));
+        let measured = best_of(exe, &path, opts.threads, opts.runs);
+        let row = BenchRow { scene: s, measured, one_thread };
         each(&row);
         rows.push(row);
     }
@@ -220,15 +257,20 @@ pub fn run(
 /// The table as CSV: ours and pbrt-v3's numbers side by side.
 pub fn csv(rows: &[BenchRow]) -> String {
     let mut out = String::from(
-        "scene,spp,wall_s,cpu_s,startup_s,rays,mrays_per_s,peak_rss_mb,pbrt_wall_s,pbrt_cpu_s,pbrt_peak_rss_mb,cpu_ratio\n",
+        "scene,spp,wall_s,cpu_s,startup_s,rays,mrays_per_s,peak_rss_mb,pbrt_wall_s,pbrt_cpu_s,pbrt_peak_rss_mb,cpu_ratio,one_thread_wall_s,speedup\n",
     );
     for r in rows {
         let Ok(m) = &r.measured else { continue };
         let p = r.scene.pbrt.clone().unwrap_or_default();
         let ratio = if p.cpu > 0.0 { format!("{:.3}", m.cpu / p.cpu) } else { String::new() };
+        let one = match &r.one_thread {
+            Some(Ok(one)) => format!("{:.3}", one.wall),
+            _ => String::new(),
+        };
+        let speedup = r.speedup().map(|v| format!("{v:.3}")).unwrap_or_default();
         let _ = writeln!(
             out,
-            "{},{},{:.3},{:.3},{:.4},{},{:.3},{:.1},{},{},{},{ratio}",
+            "{},{},{:.3},{:.3},{:.4},{},{:.3},{:.1},{},{},{},{ratio},{one},{speedup}",
             r.scene.scene,
             m.spp,
             m.wall,
@@ -305,12 +347,18 @@ mod tests {
             pbrt: Some(PbrtRun { cpu, ..Default::default() }),
         };
         let rows = [
-            BenchRow { scene: scene(1.0), measured: Ok(m.clone()) },
-            BenchRow { scene: scene(4.0), measured: Ok(m.clone()) },
-            BenchRow { scene: scene(8.0), measured: Err("failed".into()) },
+            BenchRow { scene: scene(1.0), measured: Ok(m.clone()), one_thread: None },
+            BenchRow {
+                scene: scene(4.0),
+                measured: Ok(m.clone()),
+                one_thread: Some(Ok(Measured { wall: 2.85, ..m.clone() })),
+            },
+            BenchRow { scene: scene(8.0), measured: Err("failed".into()), one_thread: None },
         ];
         // 2/1 and 2/4: geometric mean 1; the failed row does not count.
         assert!((cpu_ratio_geomean(&rows).unwrap() - 1.0).abs() < 1e-12);
         assert_eq!(csv(&rows).lines().count(), 3);
+        assert!((rows[1].speedup().unwrap() - 1.9).abs() < 1e-12);
+        assert!(csv(&rows).lines().nth(2).unwrap().ends_with(",2.850,1.900"));
     }
 }

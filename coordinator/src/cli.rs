@@ -58,6 +58,12 @@ pub struct BenchArgs {
     /// Where to write the table as CSV.
     #[arg(long, value_name = "FILE", default_value = "farm-bench.csv")]
     pub csv: PathBuf,
+    /// Also render each scene on one thread and report the speed-up.
+    #[arg(long)]
+    pub scaling: bool,
+    /// Renders per measurement; the fastest is reported.
+    #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u32).range(1..))]
+    pub runs: u32,
 }
 
 /// Arguments of `farm bench-one`.
@@ -600,7 +606,7 @@ fn run_bench(args: &BenchArgs) -> ExitCode {
         }
     };
     println!(
-        "{:<30} {:>4} {:>7} {:>7} {:>7} {:>7} {:>6} {:>8} {:>8} {:>6} {:>6}",
+        "{:<30} {:>4} {:>7} {:>7} {:>7} {:>7} {:>6} {:>8} {:>8} {:>6} {:>6} {:>8}",
         "scene",
         "spp",
         "wall s",
@@ -611,13 +617,21 @@ fn run_bench(args: &BenchArgs) -> ExitCode {
         "start s",
         "Mrays/s",
         "RSS MB",
-        "pbrt"
+        "pbrt",
+        "speed-up"
     );
-    let rows = bench::run(&exe, &args.shared, args.scene.as_deref(), args.threads, |r| {
+    let opts = bench::BenchOptions {
+        only: args.scene.clone(),
+        threads: args.threads,
+        scaling: args.scaling,
+        runs: args.runs as usize,
+    };
+    let rows = bench::run(&exe, &args.shared, &opts, |r| {
         let p = r.scene.pbrt.clone().unwrap_or_default();
+        let speedup = r.speedup().map(|v| format!("{v:.2}")).unwrap_or_else(|| "-".into());
         match &r.measured {
             Ok(m) => println!(
-                "{:<30} {:>4} {:>7.2} {:>7.2} {:>7.2} {:>7.2} {:>6.2} {:>8.3} {:>8.2} {:>6.0} {:>6.0}",
+                "{:<30} {:>4} {:>7.2} {:>7.2} {:>7.2} {:>7.2} {:>6.2} {:>8.3} {:>8.2} {:>6.0} {:>6.0} {speedup:>8}",
                 r.scene.scene,
                 m.spp,
                 m.wall,
