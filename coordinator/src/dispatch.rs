@@ -6,7 +6,7 @@ use farm_common::film::FilmTile;
 use farm_common::ids::TileId;
 use farm_worker::integrator::RayStats;
 use farm_worker::Renderer;
-use rayon::prelude::*;
+use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::mpsc::Sender;
 use std::sync::Arc;
 
@@ -58,13 +58,21 @@ impl TileDispatcher for LocalDispatcher {
     fn dispatch(&self, tiles: Vec<TileId>, results: Sender<TileResult>) {
         let renderer = self.renderer.clone();
         let pool = self.pool.clone();
+        // Every render thread takes the next tile in order, so tiles finish
+        // in about the order the film merges them: few wait for a
+        // predecessor (holding their memory), and merging keeps pace with
+        // rendering instead of piling up behind the first half of the image.
         std::thread::spawn(move || {
-            pool.install(|| {
-                tiles.into_par_iter().for_each_with(results, |tx, tile| {
+            let next = AtomicUsize::new(0);
+            pool.broadcast(|_| {
+                let tx = results.clone();
+                while let Some(&tile) = tiles.get(next.fetch_add(1, Ordering::Relaxed)) {
                     let (film_tile, stats) = renderer.render_tile(tile);
                     // A closed channel means the job was abandoned.
-                    let _ = tx.send(TileResult { tile, film_tile, stats });
-                });
+                    if tx.send(TileResult { tile, film_tile, stats }).is_err() {
+                        break;
+                    }
+                }
             });
         });
     }
