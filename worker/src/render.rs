@@ -186,13 +186,7 @@ impl Renderer {
         let bounds = self.film.tile_sample_bounds(id);
         let mut tile = FilmTile::new(self.film.tile_pixel_bounds(id));
         let diff_scale = 1.0 / (sampler.samples_per_pixel() as f32).sqrt();
-        // The film keeps a second sum over each pixel's later samples, for
-        // the render's estimate of its own error. Halton's samples of even
-        // and odd index fall in the left and right halves of a pixel, so
-        // their difference measures the image's gradient, not its noise;
-        // the first and second halves of the sequence are each spread over
-        // the whole pixel.
-        let half = sampler.samples_per_pixel() / 2;
+        let halves = sampler.halves();
         for pixel in bounds.iter() {
             if !self.pixel_bounds.contains(pixel) {
                 continue;
@@ -200,8 +194,8 @@ impl Renderer {
             sampler.start_pixel(pixel);
             let mut index = 0u32;
             loop {
-                let second_half = index >= half;
                 let cs = sampler.camera_sample(pixel);
+                let second_half = halves.is_second(index, cs.p_film.x - pixel.x as f32);
                 let (weight, ray) = if self.differentials {
                     let (weight, mut ray) = self.camera.generate_ray_differential(&cs);
                     ray.scale_differentials(diff_scale);

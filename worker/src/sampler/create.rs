@@ -151,6 +151,43 @@ mod tests {
         out
     }
 
+    /// Each half of a pixel's samples, as the film splits them for the
+    /// error estimate, covers the whole pixel: for the (0,2)-sequence every
+    /// elementary interval of area 2/spp holds exactly one of the half's
+    /// points; for Halton (base 3 in y) every vertical strip of width 2/spp.
+    #[test]
+    fn each_half_of_a_pixels_samples_is_a_net_over_the_pixel() {
+        for (name, spp) in [("halton", 16u32), ("02sequence", 16), ("02sequence", 32)] {
+            let mut s = make(name, &[("pixelsamples", spp as i32)]).clone_with_seed(9);
+            let halves = s.halves();
+            for p in [Point2i::new(0, 0), Point2i::new(5, 3), Point2i::new(12, 8)] {
+                s.start_pixel(p);
+                let mut split = [Vec::new(), Vec::new()];
+                for index in 0..spp {
+                    let c = s.camera_sample(p);
+                    let (x, y) = (c.p_film.x - p.x as f32, c.p_film.y - p.y as f32);
+                    split[halves.is_second(index, x) as usize].push((x, y));
+                    s.start_next_sample();
+                }
+                let m = (spp / 2).trailing_zeros();
+                for (h, pts) in split.iter().enumerate() {
+                    assert_eq!(pts.len(), spp as usize / 2, "{name} half {h}");
+                    let shapes = if name == "halton" { m..=m } else { 0..=m };
+                    for a in shapes {
+                        let (nx, ny) = ((1u32 << a) as f32, (1u32 << (m - a)) as f32);
+                        let mut cells: Vec<u32> = pts
+                            .iter()
+                            .map(|&(x, y)| (x * nx) as u32 * (1 << (m - a)) + (y * ny) as u32)
+                            .collect();
+                        cells.sort_unstable();
+                        cells.dedup();
+                        assert_eq!(cells.len(), pts.len(), "{name} spp {spp} half {h}, {a}");
+                    }
+                }
+            }
+        }
+    }
+
     #[test]
     fn film_samples_stay_inside_their_pixel() {
         let samplers = [

@@ -35,6 +35,42 @@ pub use zerotwosequence::ZeroTwoSequenceSampler;
 use crate::sampling::CameraSample;
 use farm_common::geometry::{Point2i, Vec2};
 
+/// Which half of its pixel's samples a sample belongs to. Each half must be
+/// spread over the whole pixel, or the halves' difference measures the
+/// image's gradient instead of its noise (Halton's even and odd samples fall
+/// in the left and right halves of a pixel).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Halves {
+    /// The first and second halves of the pixel's sample sequence (Halton,
+    /// Sobol' and the random sampler: the sequence's first half covers the
+    /// pixel, and the second fills its gaps).
+    ByIndex {
+        /// Samples in the first half.
+        half: u32,
+    },
+    /// The (0,2)-sequence sampler shuffles its points, so the sequence's
+    /// halves are random subsets. Its unshuffled first and second halves
+    /// are each a (0, m−1, 2)-net, and they differ in the m-th binary digit
+    /// of the x offset (2^m samples, scrambling only flips which is which),
+    /// so that digit splits the points as the sequence would.
+    ByPosition {
+        /// Samples per pixel (a power of two).
+        spp: f32,
+    },
+}
+
+impl Halves {
+    /// Whether sample `index` at horizontal offset `x` in its pixel
+    /// ([0, 1)) belongs to the second half.
+    #[inline]
+    pub fn is_second(self, index: u32, x: f32) -> bool {
+        match self {
+            Halves::ByIndex { half } => index >= half,
+            Halves::ByPosition { spp } => ((x * spp) as u32) & 1 == 1,
+        }
+    }
+}
+
 /// One of pbrt-v3's samplers.
 #[derive(Clone, Debug)]
 pub enum Sampler {
@@ -77,6 +113,18 @@ impl Sampler {
     /// Samples taken in each pixel.
     pub fn samples_per_pixel(&self) -> u32 {
         self.core().spp as u32
+    }
+
+    /// How a pixel's samples split into the two halves the film keeps apart
+    /// for the render's estimate of its own error.
+    pub fn halves(&self) -> Halves {
+        let spp = self.samples_per_pixel();
+        match self {
+            Sampler::ZeroTwoSequence(_) if spp.is_power_of_two() && spp > 1 => {
+                Halves::ByPosition { spp: spp as f32 }
+            }
+            _ => Halves::ByIndex { half: spp / 2 },
+        }
     }
 
     /// A copy for one tile (pbrt-v3 `Clone(seed)`): pixel samplers and the
