@@ -12,7 +12,7 @@
 
 use super::lowdiscrepancy::{
     compute_radical_inverse_permutations, inverse_radical_inverse, radical_inverse,
-    scrambled_radical_inverse, PRIME_SUMS, PRIME_TABLE_SIZE,
+    scrambled_radical_inverse, DigitPairs, PAIR_DIMS, PRIME_SUMS, PRIME_TABLE_SIZE,
 };
 use super::pixel::{GlobalSampler, GlobalSequence};
 use farm_common::geometry::{Bounds2i, Point2i};
@@ -28,6 +28,12 @@ fn permutations() -> &'static [u16] {
     PERMS.get_or_init(|| compute_radical_inverse_permutations(&mut Rng::default()))
 }
 
+/// Two-digit tables of the low dimensions' permutations, once per process.
+fn digit_pairs() -> &'static DigitPairs {
+    static PAIRS: OnceLock<DigitPairs> = OnceLock::new();
+    PAIRS.get_or_init(|| DigitPairs::new(permutations()))
+}
+
 /// The Halton sampler.
 pub type HaltonSampler = GlobalSampler<Halton>;
 
@@ -35,6 +41,7 @@ pub type HaltonSampler = GlobalSampler<Halton>;
 #[derive(Clone, Debug)]
 pub struct Halton {
     perms: &'static [u16],
+    pairs: &'static DigitPairs,
     base_scales: [i64; 2],
     base_exponents: [u32; 2],
     sample_stride: i64,
@@ -77,6 +84,7 @@ impl Halton {
         }
         Halton {
             perms: permutations(),
+            pairs: digit_pairs(),
             base_scales,
             base_exponents,
             sample_stride: base_scales[0] * base_scales[1],
@@ -125,6 +133,11 @@ impl GlobalSequence for Halton {
         match dim {
             0 => radical_inverse(0, (index >> self.base_exponents[0]) as u64),
             1 => radical_inverse(1, (index / self.base_scales[1]) as u64),
+            _ if dim < PAIR_DIMS => self.pairs.scrambled_radical_inverse(
+                dim,
+                index as u64,
+                self.permutation_for_dimension(dim),
+            ),
             _ => {
                 // pbrt-v3 aborts past its 1000 permuted bases; wrap instead
                 // (never reached with Whitted's handful of dimensions).

@@ -89,6 +89,61 @@ pub fn scrambled_radical_inverse(base_index: usize, a: u64, perm: &[u16]) -> f32
     (inv_base_n * (reversed as f32 + tail)).min(ONE_MINUS_EPSILON)
 }
 
+/// Dimensions below this (bases 2 … 61) get [`DigitPairs`] tables.
+pub const PAIR_DIMS: usize = 18;
+
+/// For each base `b` of the dimensions 2 … [`PAIR_DIMS`] − 1, the permuted
+/// values of every two-digit group: `pair[d] = perm[d % b]·b + perm[d / b]`
+/// for `d < b²`. The radical inverse then divides by `b²` once per two
+/// digits instead of by `b` once per digit; the digits, their order and
+/// the floating-point operations are unchanged, so the values are the same
+/// bits (Halton spent a sixth of a render in this loop).
+#[derive(Debug)]
+pub struct DigitPairs {
+    offsets: [usize; PAIR_DIMS],
+    table: Vec<u32>,
+}
+
+impl DigitPairs {
+    /// The tables for the permutations `perms` (laid out as
+    /// [`compute_radical_inverse_permutations`] returns them).
+    pub fn new(perms: &[u16]) -> Self {
+        let mut offsets = [0; PAIR_DIMS];
+        let mut table = Vec::new();
+        for (dim, offset) in offsets.iter_mut().enumerate().skip(2) {
+            let b = PRIMES[dim] as usize;
+            let perm = &perms[PRIME_SUMS[dim] as usize..][..b];
+            *offset = table.len();
+            table.extend((0..b * b).map(|d| perm[d % b] as u32 * b as u32 + perm[d / b] as u32));
+        }
+        DigitPairs { offsets, table }
+    }
+
+    /// [`scrambled_radical_inverse`] for a dimension `2 <= dim < PAIR_DIMS`.
+    #[inline]
+    pub fn scrambled_radical_inverse(&self, dim: usize, a: u64, perm: &[u16]) -> f32 {
+        let base = PRIMES[dim] as u64;
+        let base2 = base * base;
+        let pairs = &self.table[self.offsets[dim]..];
+        let inv_base = 1.0f32 / base as f32;
+        let (mut a, mut reversed, mut inv_base_n) = (a, 0u64, 1.0f32);
+        while a >= base {
+            let next = a / base2;
+            let d = a - next * base2;
+            reversed = reversed.wrapping_mul(base2).wrapping_add(pairs[d as usize] as u64);
+            inv_base_n *= inv_base;
+            inv_base_n *= inv_base;
+            a = next;
+        }
+        if a != 0 {
+            reversed = reversed.wrapping_mul(base).wrapping_add(perm[a as usize] as u64);
+            inv_base_n *= inv_base;
+        }
+        let tail = inv_base * perm[0] as f32 / (1.0 - inv_base);
+        (inv_base_n * (reversed as f32 + tail)).min(ONE_MINUS_EPSILON)
+    }
+}
+
 /// Random digit permutations for the first [`PRIME_TABLE_SIZE`] prime
 /// bases, concatenated; base `i`'s starts at `PRIME_SUMS[i]` (pbrt-v3
 /// `ComputeRadicalInversePermutations`).
@@ -245,6 +300,24 @@ pub fn round_up_pow2(v: i64) -> i64 {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn two_digit_steps_give_the_same_bits() {
+        let perms = compute_radical_inverse_permutations(&mut Rng::default());
+        let pairs = DigitPairs::new(&perms);
+        let mut rng = Rng::new(11);
+        for dim in 2..PAIR_DIMS {
+            let perm = &perms[PRIME_SUMS[dim] as usize..];
+            let b = PRIMES[dim] as u64;
+            let edges = [0, 1, b - 1, b, b + 1, b * b - 1, b * b, b * b * b, u32::MAX as u64];
+            let random = (0..2000).map(|_| rng.uniform_u32() as u64 >> (rng.uniform_u32() % 32));
+            for a in edges.into_iter().chain(random).chain([1 << 40, u64::MAX >> 1]) {
+                let want = scrambled_radical_inverse(dim, a, perm);
+                let got = pairs.scrambled_radical_inverse(dim, a, perm);
+                assert_eq!(got.to_bits(), want.to_bits(), "dim {dim}, a {a}");
+            }
+        }
+    }
 
     #[test]
     fn prime_tables_match_pbrt() {
