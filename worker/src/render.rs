@@ -195,7 +195,8 @@ impl Renderer {
             let mut index = 0u32;
             loop {
                 let cs = sampler.camera_sample(pixel);
-                let second_half = halves.is_second(index, cs.p_film.x - pixel.x as f32);
+                let offset = cs.p_film - Vec2::new(pixel.x as f32, pixel.y as f32);
+                let second_half = halves.is_second(index, offset);
                 let (weight, ray) = if self.differentials {
                     let (weight, mut ray) = self.camera.generate_ray_differential(&cs);
                     ray.scale_differentials(diff_scale);

@@ -110,7 +110,7 @@ pub fn create(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use farm_common::geometry::Point2i;
+    use farm_common::geometry::{Point2i, Vec2};
     use farm_common::rng::Rng;
     use farm_common::scene::{FileLoc, Param, ParamValue};
 
@@ -166,7 +166,7 @@ mod tests {
                 for index in 0..spp {
                     let c = s.camera_sample(p);
                     let (x, y) = (c.p_film.x - p.x as f32, c.p_film.y - p.y as f32);
-                    split[halves.is_second(index, x) as usize].push((x, y));
+                    split[halves.is_second(index, Vec2::new(x, y)) as usize].push((x, y));
                     s.start_next_sample();
                 }
                 let m = (spp / 2).trailing_zeros();
@@ -185,6 +185,31 @@ mod tests {
                     }
                 }
             }
+        }
+    }
+
+    /// The stratified sampler's halves are the two colours of a
+    /// checkerboard over its strata: one sample in each stratum of a colour.
+    #[test]
+    fn stratified_halves_are_the_checkerboard_colours() {
+        let mut s = make("stratified", &[("xsamples", 4), ("ysamples", 3)]).clone_with_seed(4);
+        let halves = s.halves();
+        let p = Point2i::new(2, 1);
+        s.start_pixel(p);
+        let mut seen = [Vec::new(), Vec::new()];
+        for index in 0..12 {
+            let c = s.camera_sample(p);
+            let o = c.p_film - Vec2::new(p.x as f32, p.y as f32);
+            let stratum = ((o.x * 4.0) as u32, (o.y * 3.0) as u32);
+            let h = halves.is_second(index, o) as usize;
+            assert_eq!(((stratum.0 + stratum.1) & 1) as usize, h, "{stratum:?}");
+            seen[h].push(stratum);
+            s.start_next_sample();
+        }
+        for h in &mut seen {
+            h.sort_unstable();
+            h.dedup();
+            assert_eq!(h.len(), 6, "{h:?}");
         }
     }
 

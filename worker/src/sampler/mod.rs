@@ -57,16 +57,25 @@ pub enum Halves {
         /// Samples per pixel (a power of two).
         spp: f32,
     },
+    /// The stratified sampler shuffles its jittered strata; the strata of
+    /// a checkerboard's two colours are each spread over the whole pixel.
+    ByStratum {
+        /// Strata across a pixel.
+        nx: f32,
+        /// Strata down a pixel.
+        ny: f32,
+    },
 }
 
 impl Halves {
-    /// Whether sample `index` at horizontal offset `x` in its pixel
-    /// ([0, 1)) belongs to the second half.
+    /// Whether sample `index` at offset `o` in its pixel ([0, 1)²)
+    /// belongs to the second half.
     #[inline]
-    pub fn is_second(self, index: u32, x: f32) -> bool {
+    pub fn is_second(self, index: u32, o: Vec2) -> bool {
         match self {
             Halves::ByIndex { half } => index >= half,
-            Halves::ByPosition { spp } => ((x * spp) as u32) & 1 == 1,
+            Halves::ByPosition { spp } => ((o.x * spp) as u32) & 1 == 1,
+            Halves::ByStratum { nx, ny } => (((o.x * nx) as u32) + ((o.y * ny) as u32)) & 1 == 1,
         }
     }
 }
@@ -122,6 +131,10 @@ impl Sampler {
         match self {
             Sampler::ZeroTwoSequence(_) if spp.is_power_of_two() && spp > 1 => {
                 Halves::ByPosition { spp: spp as f32 }
+            }
+            Sampler::Stratified(st) => {
+                let (nx, ny) = st.strata();
+                Halves::ByStratum { nx: nx as f32, ny: ny as f32 }
             }
             _ => Halves::ByIndex { half: spp / 2 },
         }

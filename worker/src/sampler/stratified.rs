@@ -69,6 +69,11 @@ pub struct StratifiedSampler {
 }
 
 impl StratifiedSampler {
+    /// Strata across and down a pixel.
+    pub fn strata(&self) -> (usize, usize) {
+        (self.x_samples, self.y_samples)
+    }
+
     /// A sampler with `x_samples`×`y_samples` strata and `n_dims`
     /// precomputed 1D and 2D dimensions.
     pub fn new(x_samples: usize, y_samples: usize, jitter: bool, n_dims: usize) -> Self {
