@@ -212,7 +212,11 @@ impl Coordinator for CoordinatorService {
         let (tx, rx) = mpsc::unbounded_channel();
         let (reply, known) = oneshot::channel();
         self.send(Event::Watch { job, tx, reply })?;
-        if !known.await.unwrap_or(false) {
+        // No answer at all means the event loop has stopped: the
+        // coordinator is shutting down, which is not the same as "no job".
+        let known =
+            known.await.map_err(|_| Status::unavailable("the coordinator is shutting down"))?;
+        if !known {
             return Err(Status::not_found(format!("no job {}", job.0)));
         }
         Ok(Response::new(Box::pin(UnboundedReceiverStream::new(rx))))
