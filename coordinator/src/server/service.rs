@@ -262,7 +262,8 @@ impl Coordinator for CoordinatorService {
         let job = JobId(req.into_inner().job_id);
         let (reply, rx) = oneshot::channel();
         self.send(Event::Cancel { job, reply })?;
-        let cancelled = rx.await.unwrap_or(false);
+        let cancelled =
+            rx.await.map_err(|_| Status::unavailable("the coordinator is shutting down"))?;
         Ok(Response::new(v1::CancelJobResponse { cancelled }))
     }
 }
