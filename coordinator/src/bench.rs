@@ -115,7 +115,8 @@ impl Measured {
         )
     }
 
-    fn from_output(out: &str) -> Option<Measured> {
+    /// The measurement a `farm bench-one` child printed, if any.
+    pub fn from_output(out: &str) -> Option<Measured> {
         let line = out.lines().find_map(|l| l.strip_prefix(RESULT_PREFIX))?;
         let f: Vec<&str> = line.split_whitespace().collect();
         Some(Measured {

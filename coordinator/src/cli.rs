@@ -236,18 +236,19 @@ pub fn run(cli: Cli) -> ExitCode {
 }
 
 fn block_on(f: impl std::future::Future<Output = ExitCode>) -> ExitCode {
-    match tokio::runtime::Builder::new_multi_thread().enable_all().build() {
-        Ok(rt) => rt.block_on(f),
-        Err(e) => {
-            eprintln!("error: cannot start the async runtime: {e}");
-            ExitCode::FAILURE
-        }
-    }
+    block_on_with(tokio::runtime::Builder::new_multi_thread(), f)
 }
 
 /// Runs `f` on a single-threaded runtime.
 fn block_on_one_thread(f: impl std::future::Future<Output = ExitCode>) -> ExitCode {
-    match tokio::runtime::Builder::new_current_thread().enable_all().build() {
+    block_on_with(tokio::runtime::Builder::new_current_thread(), f)
+}
+
+fn block_on_with(
+    mut runtime: tokio::runtime::Builder,
+    f: impl std::future::Future<Output = ExitCode>,
+) -> ExitCode {
+    match runtime.enable_all().build() {
         Ok(rt) => rt.block_on(f),
         Err(e) => {
             eprintln!("error: cannot start the async runtime: {e}");

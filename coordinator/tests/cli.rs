@@ -1,6 +1,7 @@
 //! The `farm` binary as a user runs it: malformed scenes end with one line
 //! naming file:line:column, exit code 2 and no panic.
 
+use std::ffi::OsStr;
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
@@ -19,6 +20,14 @@ fn submit(scene: &Path) -> (i32, String) {
         .output()
         .expect("run farm");
     (out.status.code().unwrap_or(-1), String::from_utf8_lossy(&out.stderr).into_owned())
+}
+
+/// Runs `farm` with `args`, requires success and returns its stdout.
+fn farm_ok<S: AsRef<OsStr>>(args: impl IntoIterator<Item = S>) -> String {
+    let out = Command::new(env!("CARGO_BIN_EXE_farm")).args(args).output().expect("run farm");
+    let stdout = String::from_utf8_lossy(&out.stdout).into_owned();
+    assert!(out.status.success(), "{stdout} {}", String::from_utf8_lossy(&out.stderr));
+    stdout
 }
 
 fn expect_error(name: &str, scene: &str, extra: &[(&str, &[u8])], want_loc: &str) {
@@ -121,13 +130,13 @@ fn diff_reports_the_error_and_writes_the_difference() {
     let (a, r, d) = (dir.join("a.exr"), dir.join("r.exr"), dir.join("d.exr"));
     write_image(&a, &image, &meta).expect("write");
     write_image(&r, &reference, &meta).expect("write");
-    let out = Command::new(env!("CARGO_BIN_EXE_farm"))
-        .args(["diff", "-o"])
-        .args([&d, &a, &r])
-        .output()
-        .expect("run farm");
-    let stdout = String::from_utf8_lossy(&out.stdout);
-    assert!(out.status.success(), "{stdout} {}", String::from_utf8_lossy(&out.stderr));
+    let stdout = farm_ok([
+        OsStr::new("diff"),
+        OsStr::new("-o"),
+        d.as_os_str(),
+        a.as_os_str(),
+        r.as_os_str(),
+    ]);
     // One channel of six differs by 0.5 against a reference value of 0.2.
     let rel = 0.25 / (0.04 + 0.01) / 6.0;
     assert!(stdout.contains(&format!("relMSE     {rel:.6e}")), "{stdout}");
@@ -161,16 +170,14 @@ fn converge_writes_the_table_and_the_plot() {
     )
     .expect("write");
     let (csv, svg) = (dir.join("t.csv"), dir.join("t.svg"));
-    let out = Command::new(env!("CARGO_BIN_EXE_farm"))
-        .args(["converge", "--csv"])
-        .arg(&csv)
-        .arg("--plot")
-        .arg(&svg)
-        .arg(&scene)
-        .output()
-        .expect("run farm");
-    let stdout = String::from_utf8_lossy(&out.stdout);
-    assert!(out.status.success(), "{stdout} {}", String::from_utf8_lossy(&out.stderr));
+    let stdout = farm_ok([
+        OsStr::new("converge"),
+        OsStr::new("--csv"),
+        csv.as_os_str(),
+        OsStr::new("--plot"),
+        svg.as_os_str(),
+        scene.as_os_str(),
+    ]);
     let table = std::fs::read_to_string(&csv).expect("csv");
     let rows: Vec<Vec<&str>> = table.lines().skip(1).map(|l| l.split(',').collect()).collect();
     let spp: Vec<&str> = rows.iter().map(|r| r[0]).collect();
@@ -191,14 +198,16 @@ fn verbose_submit_lists_features_and_skipped_paths() {
     let dir = temp_dir("verbose");
     let scene = dir.join("plain.pbrt");
     std::fs::write(&scene, format!("{HEAD}Shape \"sphere\"\nWorldEnd\n")).expect("write");
-    let out = Command::new(env!("CARGO_BIN_EXE_farm"))
-        .args(["submit", "--verbose", "--spp", "1", "-o"])
-        .arg(dir.join("plain.pfm"))
-        .arg(&scene)
-        .output()
-        .expect("run farm");
-    let stdout = String::from_utf8_lossy(&out.stdout);
-    assert!(out.status.success(), "{stdout} {}", String::from_utf8_lossy(&out.stderr));
+    let image = dir.join("plain.pfm");
+    let stdout = farm_ok([
+        OsStr::new("submit"),
+        OsStr::new("--verbose"),
+        OsStr::new("--spp"),
+        OsStr::new("1"),
+        OsStr::new("-o"),
+        image.as_os_str(),
+        scene.as_os_str(),
+    ]);
     for want in ["ray differentials: skipped", "motion: skipped", "textures: none"] {
         assert!(stdout.contains(want), "{want:?} missing from {stdout}");
     }
@@ -225,15 +234,15 @@ fn bench_tabulates_each_reference_scene() {
     )
     .expect("write");
     let csv = dir.join("bench.csv");
-    let out = Command::new(env!("CARGO_BIN_EXE_farm"))
-        .args(["bench", "--threads", "1", "--shared"])
-        .arg(&dir)
-        .arg("--csv")
-        .arg(&csv)
-        .output()
-        .expect("run farm");
-    let stdout = String::from_utf8_lossy(&out.stdout);
-    assert!(out.status.success(), "{stdout} {}", String::from_utf8_lossy(&out.stderr));
+    let stdout = farm_ok([
+        OsStr::new("bench"),
+        OsStr::new("--threads"),
+        OsStr::new("1"),
+        OsStr::new("--shared"),
+        dir.as_os_str(),
+        OsStr::new("--csv"),
+        csv.as_os_str(),
+    ]);
     let table = std::fs::read_to_string(&csv).expect("csv");
     let row: Vec<&str> = table.lines().nth(1).expect("a row").split(',').collect();
     assert_eq!(row[0], "ball");

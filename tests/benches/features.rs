@@ -6,16 +6,9 @@
 //! seconds, best and median of FARM_RUNS runs (default 5). Set FARM_SCENE
 //! to run one scene.
 
+use farm_coordinator::bench::cpu_seconds;
 use farm_coordinator::submit::{self, SubmitOptions};
 use farm_tests::{reference_scenes, shared_dir};
-
-/// CPU seconds (user + system) this process has used, from /proc.
-fn cpu_seconds() -> f64 {
-    let Ok(stat) = std::fs::read_to_string("/proc/self/stat") else { return 0.0 };
-    let rest = stat.rfind(')').map_or("", |i| &stat[i + 2..]);
-    let f: Vec<f64> = rest.split_whitespace().map(|v| v.parse().unwrap_or(0.0)).collect();
-    (f.get(11).unwrap_or(&0.0) + f.get(12).unwrap_or(&0.0)) / 100.0
-}
 
 fn best_and_median(mut v: Vec<f64>) -> (f64, f64) {
     v.sort_by(f64::total_cmp);

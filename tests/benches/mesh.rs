@@ -6,6 +6,7 @@
 //! thread (RAYON_NUM_THREADS=1) and prints start-up seconds, start-up per
 //! N·log₂N, nanoseconds per ray, peak RSS and bytes per triangle.
 
+use farm_coordinator::bench::Measured;
 use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -110,13 +111,11 @@ fn main() {
             .output()
             .expect("run farm");
         let stdout = String::from_utf8_lossy(&out.stdout);
-        let Some(line) = stdout.lines().find_map(|l| l.strip_prefix("farm-bench-result ")) else {
+        let Some(m) = Measured::from_output(&stdout) else {
             println!("{n:>10} failed: {}", String::from_utf8_lossy(&out.stderr));
             continue;
         };
-        // wall cpu startup rays rays_per_second peak_rss_mb spp
-        let f: Vec<f64> = line.split_whitespace().map(|v| v.parse().unwrap_or(f64::NAN)).collect();
-        let (startup, rays_per_s, rss) = (f[2], f[4], f[5]);
+        let (startup, rays_per_s, rss) = (m.startup, m.rays_per_second, m.peak_rss_mb);
         let log_n = (tris as f64).log2();
         let ns_per_ray = 1e9 / rays_per_s;
         let bytes_per_tri = match base {

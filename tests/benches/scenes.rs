@@ -3,19 +3,10 @@
 //! time and rays per second next to pbrt-v3's numbers from the reference
 //! README. Set FARM_SCENE to run one scene, FARM_THREADS to pick the thread count.
 
+use farm_coordinator::bench::cpu_seconds;
 use farm_coordinator::submit::{self, SubmitOptions};
 use farm_tests::{reference_scenes, shared_dir};
 use std::time::Instant;
-
-/// CPU seconds (user + system) this process has used, from /proc.
-fn cpu_seconds() -> Option<f64> {
-    let stat = std::fs::read_to_string("/proc/self/stat").ok()?;
-    let rest = &stat[stat.rfind(')')? + 2..];
-    let fields: Vec<&str> = rest.split_whitespace().collect();
-    let utime: f64 = fields.get(11)?.parse().ok()?;
-    let stime: f64 = fields.get(12)?.parse().ok()?;
-    Some((utime + stime) / 100.0)
-}
 
 fn main() {
     let Some(shared) = shared_dir() else {
@@ -33,13 +24,13 @@ fn main() {
             continue;
         }
         let path = shared.join("scenes").join(&s.scene).join(&s.file);
-        let cpu0 = cpu_seconds().unwrap_or(0.0);
+        let cpu0 = cpu_seconds();
         let t = Instant::now();
         let opts = SubmitOptions { threads, ..Default::default() };
         match submit::render(&path, &opts, |_| {}) {
             Ok(r) => {
                 let wall = t.elapsed().as_secs_f64();
-                let cpu = cpu_seconds().unwrap_or(0.0) - cpu0;
+                let cpu = cpu_seconds() - cpu0;
                 let rays = r.stats.total_rays() as f64;
                 println!(
                     "{:<32} {:>8.2} {:>8.2} {:>9.3} {:>10.2} {:>10.2} {:>9}",
