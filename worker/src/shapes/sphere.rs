@@ -7,8 +7,7 @@ use super::efloat::{
 use crate::interaction::{Interaction, SurfaceInteraction};
 use crate::sampling::uniform_sample_sphere;
 use farm_common::geometry::{
-    coordinate_system, gamma, offset_ray_origin, spherical_direction, Bounds3f, DVec3, Ray, Vec2,
-    Vec3,
+    coordinate_system, gamma, offset_ray_origin, spherical_direction, Bounds3f, Ray, Vec2, Vec3,
 };
 use std::f32::consts::PI;
 
@@ -59,24 +58,47 @@ impl Sphere {
             .bounds(&Bounds3f::new(Vec3::new(-r, -r, self.z_min), Vec3::new(r, r, self.z_max)))
     }
 
-    fn hit(&self, r: &Ray) -> Option<(Ray, EFloat, (Vec3, f32))> {
-        let (ray, o, d) = self.placement.efloat_ray(r);
-        let a = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
-        let b = 2.0 * (d[0] * o[0] + d[1] * o[1] + d[2] * o[2]);
-        let rad = EFloat::from(self.radius);
-        let c = o[0] * o[0] + o[1] * o[1] + o[2] * o[2] - rad * rad;
+    /// Whether the z and φ clips can cut anything away. A full sphere needs
+    /// neither the hit point nor its φ to accept a root.
+    #[inline]
+    fn is_clipped(&self) -> bool {
+        self.z_min > -self.radius || self.z_max < self.radius || self.phi_max < 2.0 * PI
+    }
+
+    /// The object-space ray and the roots `t0 <= t1` of the ray–sphere quadratic,
+    /// with pbrt-v3's error bounds.
+    #[inline]
+    fn roots(&self, r: &Ray) -> Option<(Ray, EFloat, EFloat)> {
+        let (ray, oe, de) = self.placement.object_ray(r);
         // b² − 4ac cancels catastrophically for rays from far away; pbrt-v4
         // writes it as 4a(r² − |v|²), v the centre-to-closest-point vector.
         // Its value is computed in double precision from the ray, accurate
-        // both far away and for short chords.
-        let od = DVec3::new(o[0].v as f64, o[1].v as f64, o[2].v as f64);
-        let dd = DVec3::new(d[0].v as f64, d[1].v as f64, d[2].v as f64);
+        // both far away and for short chords. Most rays miss: they are
+        // rejected here, before any interval arithmetic.
+        let (od, dd) = (ray.o.as_dvec3(), ray.d.as_dvec3());
         let a64 = dd.length_squared();
         let len64 = (od - dd * (dd.dot(od) / a64)).length();
         let r64 = self.radius as f64;
         let discrim = 4.0 * a64 * (r64 + len64) * (r64 - len64);
+        if discrim.is_nan() || discrim < 0.0 {
+            return None;
+        }
+        let o =
+            [EFloat::new(ray.o.x, oe.x), EFloat::new(ray.o.y, oe.y), EFloat::new(ray.o.z, oe.z)];
+        let d =
+            [EFloat::new(ray.d.x, de.x), EFloat::new(ray.d.y, de.y), EFloat::new(ray.d.z, de.z)];
+        let a = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
+        let b = 2.0 * (d[0] * o[0] + d[1] * o[1] + d[2] * o[2]);
+        let rad = EFloat::from(self.radius);
+        let c = o[0] * o[0] + o[1] * o[1] + o[2] * o[2] - rad * rad;
         let (t0, t1) = quadratic_with_discriminant(a, b, c, discrim)?;
+        Some((ray, t0, t1))
+    }
+
+    fn hit(&self, r: &Ray) -> Option<(Ray, EFloat, (Vec3, f32))> {
+        let (ray, t0, t1) = self.roots(r)?;
         let radius = self.radius;
+        let clipped = self.is_clipped();
         let eval = |t: f32| {
             // Reproject the hit onto the sphere.
             let mut p = ray.at(t);
@@ -85,10 +107,11 @@ impl Sphere {
                 p.x = 1e-5 * radius;
             }
             let phi = phi_of(p.y, p.x);
-            let clipped = (self.z_min > -radius && p.z < self.z_min)
-                || (self.z_max < radius && p.z > self.z_max)
-                || phi > self.phi_max;
-            (!clipped).then_some((p, phi))
+            let cut = clipped
+                && ((self.z_min > -radius && p.z < self.z_min)
+                    || (self.z_max < radius && p.z > self.z_max)
+                    || phi > self.phi_max);
+            (!cut).then_some((p, phi))
         };
         let (t, h) = nearest_hit(t0, t1, ray.t_max, eval)?;
         Some((ray, t, h))
@@ -127,7 +150,13 @@ impl Sphere {
 
     /// Whether the ray hits.
     pub fn intersect_p(&self, r: &Ray) -> bool {
-        self.hit(r).is_some()
+        if self.is_clipped() {
+            return self.hit(r).is_some();
+        }
+        let Some((ray, t0, t1)) = self.roots(r) else {
+            return false;
+        };
+        nearest_hit(t0, t1, ray.t_max, |_| Some(())).is_some()
     }
 
     /// Surface area (object space).
