@@ -4,7 +4,7 @@
 
 use crate::accel::Bvh;
 use crate::interaction::SurfaceInteraction;
-use crate::shapes::Shape;
+use crate::shapes::{Shape, Triangle};
 use farm_common::geometry::{AnimatedTransform, Bounds3f, Ray, Transform};
 use std::sync::Arc;
 
@@ -66,16 +66,35 @@ impl Aggregate {
     /// The closest hit along `ray` before its `t_max`; returns its `t` too.
     #[inline]
     pub fn intersect(&self, ray: &Ray) -> Option<(f32, Hit<'_>)> {
-        let mut best: Option<(f32, usize, SurfaceInteraction)> = None;
+        // A triangle's interaction is built for the closest hit only; other
+        // shapes build theirs as they are hit.
+        enum Closest<'a> {
+            Triangle(&'a Triangle, [f32; 3]),
+            Other(SurfaceInteraction),
+        }
+        let mut best: Option<(f32, usize, Closest)> = None;
         self.bvh.intersect(ray, |i, r| {
-            let (t, si) = self.prims[i].shape.intersect(r)?;
-            best = Some((t, i, si));
+            let (t, closest) = match &self.prims[i].shape {
+                Shape::Triangle(tri) => {
+                    let (t, b) = tri.hit_barycentrics(r, true)?;
+                    (t, Closest::Triangle(tri, b))
+                }
+                shape => {
+                    let (t, si) = shape.intersect(r)?;
+                    (t, Closest::Other(si))
+                }
+            };
+            best = Some((t, i, closest));
             Some(t)
         });
-        best.map(|(t, i, mut si)| {
-            si.prim = i as u32;
-            (t, Hit { si, prim: &self.prims[i] })
-        })
+        let (t, i, closest) = best?;
+        let prim = &self.prims[i];
+        let mut si = match closest {
+            Closest::Triangle(tri, b) => tri.interaction(ray, b),
+            Closest::Other(si) => si,
+        };
+        si.prim = i as u32;
+        Some((t, Hit { si, prim }))
     }
 
     /// Whether anything blocks `ray` before its `t_max`.

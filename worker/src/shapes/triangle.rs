@@ -163,13 +163,27 @@ impl Triangle {
 
     /// Nearest hit; `test_alpha` applies the constant-zero alpha mask.
     pub fn intersect_with(&self, ray: &Ray, test_alpha: bool) -> Option<(f32, SurfaceInteraction)> {
+        let (t, b) = self.hit_barycentrics(ray, test_alpha)?;
+        Some((t, self.interaction(ray, b)))
+    }
+
+    /// The hit's `t` and barycentrics, without its interaction: the BVH
+    /// finds several hits on the way to the closest and builds the
+    /// interaction of that one only ([`Triangle::interaction`]).
+    #[inline]
+    pub fn hit_barycentrics(&self, ray: &Ray, test_alpha: bool) -> Option<(f32, [f32; 3])> {
         let h = self.raw_hit(ray)?;
-        let mesh = &*self.mesh;
-        if test_alpha && mesh.alpha == AlphaMask::Zero {
+        if test_alpha && self.mesh.alpha == AlphaMask::Zero {
             return None;
         }
+        Some((h.t, h.b))
+    }
+
+    /// The surface interaction at barycentrics `b` of a hit by `ray`.
+    pub fn interaction(&self, ray: &Ray, b: [f32; 3]) -> SurfaceInteraction {
+        let mesh = &*self.mesh;
         let (p0, p1, p2) = self.points();
-        let [b0, b1, b2] = h.b;
+        let [b0, b1, b2] = b;
         let uv = self.uvs();
         // Partial derivatives, or any frame around the normal for degenerate uvs.
         let (duv02, duv12) = (uv[0] - uv[2], uv[1] - uv[2]);
@@ -206,7 +220,7 @@ impl Triangle {
         si.it.n = ng;
         si.shading.n = ng;
         if mesh.n.is_some() || mesh.s.is_some() {
-            self.shading_geometry(&mut si, h.b, &uv, flip);
+            self.shading_geometry(&mut si, b, &uv, flip);
         }
         if mesh.n.is_some() {
             si.it.n = face_forward(si.it.n, si.shading.n);
@@ -214,7 +228,7 @@ impl Triangle {
             si.it.n = -si.it.n;
             si.shading.n = si.it.n;
         }
-        Some((h.t, si))
+        si
     }
 
     /// Interpolated normals and tangents (pbrt-v3's `SetShadingGeometry`
