@@ -25,8 +25,8 @@ pub struct SubmitOptions {
     pub spp: Option<u32>,
     /// Render threads (0 = one per core).
     pub threads: usize,
-    /// Compute ray differentials even where the scene does not use them
-    /// (a benchmark's baseline).
+    /// Compute ray differentials and every camera-sample dimension even
+    /// where the scene does not use them (a benchmark's baseline).
     pub all_paths: bool,
 }
 

@@ -1,5 +1,6 @@
 //! A scene pays only for what it uses: the analysis finds the features a
-//! scene uses, skipping ray differentials leaves the image bit for bit, and
+//! scene uses, skipping ray differentials and unread camera-sample
+//! dimensions leaves the image bit for bit, and
 //! the analysis agrees with the textures the renderer builds.
 
 use farm_coordinator::submit::SubmitOptions;
@@ -40,15 +41,21 @@ fn an_untextured_static_scene_skips_differentials_and_renders_the_same_bits() {
     assert!(lines.contains("ray differentials: skipped"), "{lines}");
     assert!(lines.contains("motion: skipped"), "{lines}");
 
-    let skipped = render_text("plain", &scene, &SubmitOptions::default());
-    let all =
-        render_text("plain", &scene, &SubmitOptions { all_paths: true, ..Default::default() });
-    let bits = |s: &farm_coordinator::submit::RenderSummary| -> Vec<u32> {
-        s.image.pixels.iter().flat_map(|p| p.map(f32::to_bits)).collect()
-    };
-    assert!(skipped.image.pixels.iter().any(|p| p[1] > 0.0), "image is not black");
-    assert_eq!(bits(&skipped), bits(&all), "skipping differentials changed the image");
-    assert_eq!(skipped.stats.total_rays(), all.stats.total_rays());
+    // Skipping differentials and the unread time and lens dimensions of
+    // the camera samples leaves the image bit for bit, for both samplers
+    // that pass over dimensions without computing them.
+    for sampler in ["halton", "sobol"] {
+        let scene = scene.replace("\"halton\"", &format!("\"{sampler}\""));
+        let skipped = render_text("plain", &scene, &SubmitOptions::default());
+        let all =
+            render_text("plain", &scene, &SubmitOptions { all_paths: true, ..Default::default() });
+        let bits = |s: &farm_coordinator::submit::RenderSummary| -> Vec<u32> {
+            s.image.pixels.iter().flat_map(|p| p.map(f32::to_bits)).collect()
+        };
+        assert!(skipped.image.pixels.iter().any(|p| p[1] > 0.0), "image is not black");
+        assert_eq!(bits(&skipped), bits(&all), "{sampler}: skipping changed the image");
+        assert_eq!(skipped.stats.total_rays(), all.stats.total_rays());
+    }
 }
 
 #[test]

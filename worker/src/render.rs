@@ -8,7 +8,7 @@ use crate::error::BuildError;
 use crate::features::Features;
 use crate::filters::{self, Filter};
 use crate::integrator::{RayStats, Whitted};
-use crate::sampler::{self, Sampler};
+use crate::sampler::{self, CameraDims, Sampler};
 use crate::scene::Scene;
 use farm_common::film::{FilmGeometry, FilmTile};
 use farm_common::geometry::{
@@ -26,8 +26,9 @@ const FILTER_TABLE_SIZE: usize = 16;
 pub struct RenderOptions {
     /// Samples per pixel instead of the sampler's `pixelsamples`.
     pub spp: Option<u32>,
-    /// Compute ray differentials even when the scene does not use them
-    /// (the baseline of the benchmark that measures the saving).
+    /// Compute ray differentials and every camera-sample dimension even when
+    /// the scene does not use them (the baseline of the benchmark that
+    /// measures the saving).
     pub all_paths: bool,
 }
 
@@ -77,6 +78,8 @@ pub struct Renderer {
     pub features: Features,
     /// Whether camera rays carry differentials.
     differentials: bool,
+    /// The camera-sample dimensions the camera reads.
+    camera_dims: CameraDims,
     filter_table: [f32; FILTER_TABLE_SIZE * FILTER_TABLE_SIZE],
     inv_filter_radius: Vec2,
 }
@@ -146,6 +149,12 @@ impl Renderer {
         let scene = Scene::build(desc, render_from_world, &mut warnings)?;
         let features = Features::of(desc);
         let differentials = features.needs_differentials() || opts.all_paths;
+        // Shutter time matters only if something moves, the lens point only
+        // with a lens; the sampler passes over the others.
+        let camera_dims = CameraDims {
+            time: features.moving > 0 || features.moving_camera || opts.all_paths,
+            lens: camera.projective().lens_radius > 0.0 || opts.all_paths,
+        };
 
         // Filter values at the centres of a 16×16 grid over one quadrant.
         let r = filter.radius();
@@ -168,6 +177,7 @@ impl Renderer {
             pixel_bounds,
             features,
             differentials,
+            camera_dims,
             filter_table,
             inv_filter_radius: Vec2::ONE / r,
         };
@@ -194,7 +204,7 @@ impl Renderer {
             sampler.start_pixel(pixel);
             let mut index = 0u32;
             loop {
-                let cs = sampler.camera_sample(pixel);
+                let cs = sampler.camera_sample_for(pixel, self.camera_dims);
                 let offset = cs.p_film - Vec2::new(pixel.x as f32, pixel.y as f32);
                 let second_half = halves.is_second(index, offset);
                 let (weight, ray) = if self.differentials {

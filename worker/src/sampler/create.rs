@@ -110,6 +110,7 @@ pub fn create(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::sampler::CameraDims;
     use farm_common::geometry::{Point2i, Vec2};
     use farm_common::rng::Rng;
     use farm_common::scene::{FileLoc, Param, ParamValue};
@@ -299,6 +300,54 @@ mod tests {
         assert_eq!(make("random", &[]).samples_per_pixel(), 4);
         assert_eq!(make("halton", &[]).samples_per_pixel(), 16);
         assert_eq!(make("stratified", &[]).samples_per_pixel(), 16);
+    }
+
+    /// Skipping the time or lens dimensions leaves the film point and every
+    /// later value as they were, for every sampler, with and without arrays
+    /// (which Halton and Sobol' place right after the camera dimensions).
+    #[test]
+    fn skipped_camera_dimensions_leave_later_values_alone() {
+        for name in ["halton", "sobol", "02sequence", "maxmindist", "stratified", "random"] {
+            for arrays in [false, true] {
+                for dims in [(false, false), (true, false), (false, true)] {
+                    let dims = CameraDims { time: dims.0, lens: dims.1 };
+                    let mut base = if name == "stratified" {
+                        make(name, &[("xsamples", 2), ("ysamples", 4)])
+                    } else {
+                        make(name, &[("pixelsamples", 8)])
+                    };
+                    if arrays {
+                        base.request_2d_array(2);
+                    }
+                    let (mut full, mut skip) = (base.clone_with_seed(3), base.clone_with_seed(3));
+                    let p = Point2i::new(5, 2);
+                    full.start_pixel(p);
+                    skip.start_pixel(p);
+                    loop {
+                        let (a, b) = (full.camera_sample(p), skip.camera_sample_for(p, dims));
+                        assert_eq!(a.p_film, b.p_film, "{name}");
+                        if dims.time {
+                            assert_eq!(a.time, b.time, "{name}");
+                        }
+                        if dims.lens {
+                            assert_eq!(a.p_lens, b.p_lens, "{name}");
+                        }
+                        if arrays {
+                            assert_eq!(full.get_2d_array(2), skip.get_2d_array(2), "{name}");
+                        }
+                        for _ in 0..3 {
+                            assert_eq!(full.get_1d(), skip.get_1d(), "{name} {dims:?}");
+                            assert_eq!(full.get_2d(), skip.get_2d(), "{name} {dims:?}");
+                        }
+                        let more = full.start_next_sample();
+                        assert_eq!(more, skip.start_next_sample());
+                        if !more {
+                            break;
+                        }
+                    }
+                }
+            }
+        }
     }
 
     #[test]

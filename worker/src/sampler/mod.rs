@@ -97,6 +97,21 @@ pub enum Sampler {
     Random(RandomSampler),
 }
 
+/// Which optional dimensions of a camera sample the camera reads: time only
+/// matters when something moves, the lens point only with a lens radius.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct CameraDims {
+    /// The shutter time.
+    pub time: bool,
+    /// The point on the lens.
+    pub lens: bool,
+}
+
+impl CameraDims {
+    /// Every dimension (pbrt-v3's `GetCameraSample`).
+    pub const ALL: CameraDims = CameraDims { time: true, lens: true };
+}
+
 macro_rules! dispatch {
     ($self:expr, $s:ident => $global:expr, $pixel:expr, $random:expr) => {
         match $self {
@@ -194,10 +209,55 @@ impl Sampler {
     /// time `get_1d()`, then lens point `get_2d()`.
     #[inline]
     pub fn camera_sample(&mut self, p_raster: Point2i) -> CameraSample {
+        self.camera_sample_for(p_raster, CameraDims::ALL)
+    }
+
+    /// [`Sampler::camera_sample`] for a camera that reads only the
+    /// dimensions in `dims`. The others are passed over without being
+    /// computed where the sampler allows it (Halton, Sobol') and left at 0;
+    /// every later value is the same as with [`Sampler::camera_sample`].
+    #[inline]
+    pub fn camera_sample_for(&mut self, p_raster: Point2i, dims: CameraDims) -> CameraSample {
         let p_film = Vec2::new(p_raster.x as f32, p_raster.y as f32) + self.get_2d();
-        let time = self.get_1d();
-        let p_lens = self.get_2d();
+        let time = if dims.time {
+            self.get_1d()
+        } else {
+            self.skip_1d();
+            0.0
+        };
+        let p_lens = if dims.lens {
+            self.get_2d()
+        } else {
+            self.skip_2d();
+            Vec2::ZERO
+        };
         CameraSample { p_film, p_lens, time }
+    }
+
+    /// Passes over the next 1D value.
+    #[inline]
+    fn skip_1d(&mut self) {
+        match self {
+            Sampler::Halton(s) => s.skip_1d(),
+            Sampler::Sobol(s) => s.skip_1d(),
+            // Their values are precomputed per pixel or drawn from a generator
+            // whose state must advance.
+            _ => {
+                self.get_1d();
+            }
+        }
+    }
+
+    /// Passes over the next 2D value.
+    #[inline]
+    fn skip_2d(&mut self) {
+        match self {
+            Sampler::Halton(s) => s.skip_2d(),
+            Sampler::Sobol(s) => s.skip_2d(),
+            _ => {
+                self.get_2d();
+            }
+        }
     }
 
     /// The array length the sampler prefers for a request of `n` (pbrt-v3 `RoundCount`).

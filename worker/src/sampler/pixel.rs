@@ -262,22 +262,41 @@ impl<S: GlobalSequence> GlobalSampler<S> {
     /// The next 1D value, skipping the dimensions used by arrays.
     #[inline]
     pub fn get_1d(&mut self) -> f32 {
-        if self.dimension >= ARRAY_START_DIM && self.dimension < self.array_end_dim {
-            self.dimension = self.array_end_dim;
-        }
-        let d = self.dimension;
-        self.dimension += 1;
+        self.skip_1d();
+        let d = self.dimension - 1;
         self.seq.sample_dimension(self.core.current_pixel, self.interval_sample_index, d)
     }
 
     /// The next 2D value, skipping the dimensions used by arrays.
     #[inline]
     pub fn get_2d(&mut self) -> Vec2 {
+        let d = self.next_2d_dimension();
+        let (p, i) = (self.core.current_pixel, self.interval_sample_index);
+        Vec2::new(self.seq.sample_dimension(p, i, d), self.seq.sample_dimension(p, i, d + 1))
+    }
+
+    /// Passes over the next 1D value without computing it: later values
+    /// are the ones [`GlobalSampler::get_1d`] would have left.
+    #[inline]
+    pub fn skip_1d(&mut self) {
+        if self.dimension >= ARRAY_START_DIM && self.dimension < self.array_end_dim {
+            self.dimension = self.array_end_dim;
+        }
+        self.dimension += 1;
+    }
+
+    /// Passes over the next 2D value without computing it.
+    #[inline]
+    pub fn skip_2d(&mut self) {
+        self.next_2d_dimension();
+    }
+
+    #[inline]
+    fn next_2d_dimension(&mut self) -> usize {
         if self.dimension + 1 >= ARRAY_START_DIM && self.dimension < self.array_end_dim {
             self.dimension = self.array_end_dim;
         }
-        let (d, p, i) = (self.dimension, self.core.current_pixel, self.interval_sample_index);
         self.dimension += 2;
-        Vec2::new(self.seq.sample_dimension(p, i, d), self.seq.sample_dimension(p, i, d + 1))
+        self.dimension - 2
     }
 }
