@@ -77,8 +77,13 @@ impl Sphere {
         // rejected here, before any interval arithmetic.
         let (od, dd) = (ray.o.as_dvec3(), ray.d.as_dvec3());
         let a64 = dd.length_squared();
-        let len64 = (od - dd * (dd.dot(od) / a64)).length();
+        let len2 = (od - dd * (dd.dot(od) / a64)).length_squared();
         let r64 = self.radius as f64;
+        // A clear miss needs no square root.
+        if len2 > r64 * r64 * (1.0 + 1e-9) {
+            return None;
+        }
+        let len64 = len2.sqrt();
         let discrim = 4.0 * a64 * (r64 + len64) * (r64 - len64);
         if discrim.is_nan() || discrim < 0.0 {
             return None;
