@@ -192,16 +192,29 @@ impl BenchRow {
     }
 }
 
-/// The fastest of `runs` renders of `scene`, each in a child process.
-fn best_of(exe: &Path, scene: &Path, threads: usize, runs: usize) -> Result<Measured, String> {
-    let mut best: Option<Measured> = None;
+/// The fastest of `runs` renders of `scene` with each thread count in
+/// `threads`, each in a child process. The counts take turns run by run, so
+/// that a load the shared machine picks up or drops midway weighs on all of
+/// them alike (a speed-up compares two of them).
+fn best_of(
+    exe: &Path,
+    scene: &Path,
+    threads: &[usize],
+    runs: usize,
+) -> Vec<Result<Measured, String>> {
+    let mut best: Vec<Option<Result<Measured, String>>> = vec![None; threads.len()];
     for _ in 0..runs.max(1) {
-        let m = measure_child(exe, scene, threads)?;
-        if best.as_ref().is_none_or(|b| m.wall < b.wall) {
-            best = Some(m);
+        for (b, &t) in best.iter_mut().zip(threads) {
+            let m = measure_child(exe, scene, t);
+            *b = match (b.take(), m) {
+                // A failure stands; otherwise the fastest run does.
+                (Some(Err(e)), _) => Some(Err(e)),
+                (Some(Ok(old)), Ok(m)) if old.wall <= m.wall => Some(Ok(old)),
+                (_, m) => Some(m),
+            };
         }
     }
-    best.ok_or_else(|| "no run".to_string())
+    best.into_iter().map(|b| b.unwrap_or_else(|| Err("no run".into()))).collect()
 }
 
 /// Renders `scene` in a child process (`exe bench-one SCENE`).
@@ -246,8 +259,10 @@ pub fn run(
             continue;
         }
         let path: PathBuf = shared.join("scenes").join(&s.scene).join(&s.file);
-        let one_thread = opts.scaling.then(|| best_of(exe, &path, 1, opts.runs));
-        let measured = best_of(exe, &path, opts.threads, opts.runs);
+        let counts: &[usize] = if opts.scaling { &[opts.threads, 1] } else { &[opts.threads] };
+        let mut results = best_of(exe, &path, counts, opts.runs).into_iter();
+        let measured = results.next().unwrap_or_else(|| Err("no run".into()));
+        let one_thread = results.next();
         let row = BenchRow { scene: s, measured, one_thread };
         each(&row);
         rows.push(row);
