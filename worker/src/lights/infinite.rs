@@ -21,6 +21,9 @@ pub struct InfiniteLight {
     pub distribution: Distribution2D,
     /// Radius of the scene's bounding sphere (set by preprocessing).
     pub world_radius: f32,
+    /// The radiance when the map is one texel (no `mapname`): then the
+    /// importance distribution is uniform and no lookup is needed.
+    constant: Option<Spectrum>,
 }
 
 impl InfiniteLight {
@@ -44,17 +47,22 @@ impl InfiniteLight {
                 img[v * w + u] = lmap.lookup(Vec2::new(up, vp), filter_width).y() * sin_theta;
             }
         }
+        let constant = (width == 1 && height == 1).then(|| lmap.texel(0, 0, 0));
         InfiniteLight {
             lmap,
             render_from_light,
             distribution: Distribution2D::new(&img, w, h),
             world_radius: 0.0,
+            constant,
         }
     }
 
     /// Radiance of an escaping ray.
     #[inline]
     pub fn le(&self, ray: &Ray) -> Spectrum {
+        if let Some(l) = self.constant {
+            return l;
+        }
         let wr = self.render_from_light.inverse().vector(ray.d).normalize();
         let st = Vec2::new(spherical_phi(wr) * (0.5 / PI), spherical_theta(wr) / PI);
         self.lmap.lookup(st, 0.0)
@@ -63,7 +71,11 @@ impl InfiniteLight {
     /// A direction drawn from the map's importance distribution.
     #[inline]
     pub fn sample_li(&self, r: &Interaction, u: Vec2) -> Option<LightSample> {
-        let (uv, map_pdf) = self.distribution.sample_continuous(u);
+        // A constant map's distribution is uniform: (u, 1), up to rounding.
+        let (uv, map_pdf) = match self.constant {
+            Some(_) => (u, 1.0),
+            None => self.distribution.sample_continuous(u),
+        };
         if map_pdf == 0.0 {
             return None;
         }
@@ -81,7 +93,7 @@ impl InfiniteLight {
         }
         let pdf = map_pdf / (2.0 * PI * PI * sin_theta);
         Some(LightSample {
-            li: self.lmap.lookup(uv, 0.0),
+            li: self.constant.unwrap_or_else(|| self.lmap.lookup(uv, 0.0)),
             wi,
             pdf,
             p_light: Interaction {
@@ -107,5 +119,38 @@ fn spherical_phi(v: Vec3) -> f32 {
         p + 2.0 * PI
     } else {
         p
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use farm_common::rng::Rng;
+
+    /// The constant map's short cut gives what its distribution and lookups
+    /// give, to rounding.
+    #[test]
+    fn constant_map_short_cut_matches_the_general_path() {
+        let l = Spectrum::new(0.4, 0.45, 0.5);
+        let xf = Transform::new(farm_common::geometry::Mat4::from_rotation_x(0.3));
+        let mut fast = InfiniteLight::new(xf, 1, 1, vec![l]);
+        fast.world_radius = 10.0;
+        let general = InfiniteLight { constant: None, ..fast.clone() };
+        assert!(fast.constant.is_some());
+        assert!(InfiniteLight::new(xf, 2, 1, vec![l; 2]).constant.is_none());
+        let r = Interaction { p: Vec3::new(1.0, 2.0, 3.0), ..Default::default() };
+        let mut rng = Rng::new(3);
+        let close = |a: f32, b: f32| (a - b).abs() <= 1e-5 * a.abs().max(b.abs()).max(1e-3);
+        for _ in 0..1000 {
+            let u = Vec2::new(rng.uniform_f32(), rng.uniform_f32());
+            let (a, b) = (fast.sample_li(&r, u).unwrap(), general.sample_li(&r, u).unwrap());
+            assert!(close(a.pdf, b.pdf), "pdf {} vs {}", a.pdf, b.pdf);
+            assert!((a.wi - b.wi).length() < 1e-5, "{} vs {}", a.wi, b.wi);
+            for c in 0..3 {
+                assert!(close(a.li[c], b.li[c]) && close(a.li[c], l[c]));
+            }
+            let ray = Ray::new(Vec3::ZERO, a.wi, 0.0);
+            assert!(close(fast.le(&ray)[0], general.le(&ray)[0]));
+        }
     }
 }
