@@ -163,7 +163,12 @@ pub fn quadratic_with_discriminant(
     if discrim < 0.0 {
         return None;
     }
-    let root = discrim.sqrt();
+    Some(quadratic_with_root(a, b, c, discrim.sqrt()))
+}
+
+/// The roots given the square root of a non-negative discriminant.
+#[inline]
+pub fn quadratic_with_root(a: EFloat, b: EFloat, c: EFloat, root: f64) -> (EFloat, EFloat) {
     let float_root = EFloat::new(root as f32, (MACHINE_EPSILON as f64 * root) as f32);
     let q = if b.v < 0.0 { -0.5 * (b - float_root) } else { -0.5 * (b + float_root) };
     let mut t0 = q / a;
@@ -171,7 +176,7 @@ pub fn quadratic_with_discriminant(
     if t0.v > t1.v {
         std::mem::swap(&mut t0, &mut t1);
     }
-    Some((t0, t1))
+    (t0, t1)
 }
 
 /// Picks the nearest valid root the way every pbrt-v3 quadric does: `eval`

@@ -1,9 +1,7 @@
 //! Partial spheres (pbrt-v3 `shapes/sphere.cpp`):
 //! `Shape "sphere" "float radius" 1 "float zmin" -1 "float zmax" 1 "float phimax" 360`.
 
-use super::efloat::{
-    nearest_hit, phi_of, quadratic_with_discriminant, weingarten, EFloat, Placement,
-};
+use super::efloat::{nearest_hit, phi_of, quadratic_with_root, weingarten, EFloat, Placement};
 use crate::interaction::{Interaction, SurfaceInteraction};
 use crate::sampling::uniform_sample_sphere;
 use farm_common::geometry::{
@@ -77,7 +75,8 @@ impl Sphere {
         // rejected here, before any interval arithmetic.
         let (od, dd) = (ray.o.as_dvec3(), ray.d.as_dvec3());
         let a64 = dd.length_squared();
-        let len2 = (od - dd * (dd.dot(od) / a64)).length_squared();
+        let proj = dd.dot(od) / a64;
+        let len2 = (od - dd * proj).length_squared();
         let r64 = self.radius as f64;
         // A clear miss needs no square root.
         if len2 > r64 * r64 * (1.0 + 1e-9) {
@@ -88,6 +87,16 @@ impl Sphere {
         if discrim.is_nan() || discrim < 0.0 {
             return None;
         }
+        // The roots in double precision. The interval roots below contain the
+        // roots of this same quadratic, so when these lie clearly outside the
+        // ray's range, so do those: a shadow ray that stops short of a
+        // spherical light is rejected here.
+        let root = discrim.sqrt();
+        let half = root / (2.0 * a64);
+        let slack = 1e-5 * (proj.abs() + half);
+        if -proj - half > ray.t_max as f64 + slack || -proj + half < -slack {
+            return None;
+        }
         let o =
             [EFloat::new(ray.o.x, oe.x), EFloat::new(ray.o.y, oe.y), EFloat::new(ray.o.z, oe.z)];
         let d =
@@ -96,7 +105,7 @@ impl Sphere {
         let b = 2.0 * (d[0] * o[0] + d[1] * o[1] + d[2] * o[2]);
         let rad = EFloat::from(self.radius);
         let c = o[0] * o[0] + o[1] * o[1] + o[2] * o[2] - rad * rad;
-        let (t0, t1) = quadratic_with_discriminant(a, b, c, discrim)?;
+        let (t0, t1) = quadratic_with_root(a, b, c, root);
         Some((ray, t0, t1))
     }
 
@@ -240,6 +249,73 @@ mod tests {
     use super::*;
     use farm_common::geometry::{DVec3, Mat4, Transform};
     use farm_common::rng::Rng;
+
+    /// The interval path alone, without the double-precision early outs:
+    /// whether it accepts a root in the ray's range.
+    fn interval_only(s: &Sphere, r: &Ray) -> bool {
+        let (ray, o, d) = s.placement.efloat_ray(r);
+        let a = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
+        let b = 2.0 * (d[0] * o[0] + d[1] * o[1] + d[2] * o[2]);
+        let rad = EFloat::from(s.radius);
+        let c = o[0] * o[0] + o[1] * o[1] + o[2] * o[2] - rad * rad;
+        let (od, dd) = (ray.o.as_dvec3(), ray.d.as_dvec3());
+        let len = (od - dd * (dd.dot(od) / dd.length_squared())).length();
+        let r64 = s.radius as f64;
+        let discrim = 4.0 * dd.length_squared() * (r64 + len) * (r64 - len);
+        let Some((t0, t1)) = super::super::efloat::quadratic_with_discriminant(a, b, c, discrim)
+        else {
+            return false;
+        };
+        nearest_hit(t0, t1, ray.t_max, |_| Some(())).is_some()
+    }
+
+    /// The early outs never change the answer: shadow rays to points
+    /// sampled on the sphere (which stop just short of it), rays from inside,
+    /// rays that end just past or just before the surface, and grazing rays.
+    #[test]
+    fn early_outs_agree_with_the_interval_path() {
+        let mut rng = Rng::new(5);
+        let t = Transform::new(Mat4::from_translation(Vec3::new(3.0, -2.0, 7.0)));
+        let s = Sphere::new(Placement::new(&t, false), 1.5, -1.5, 1.5, 360.0);
+        let centre = Vec3::new(3.0, -2.0, 7.0);
+        let mut u2 = || Vec2::new(rng.uniform_f32(), rng.uniform_f32());
+        let (mut hits, mut misses) = (0, 0);
+        for i in 0..20_000 {
+            let from = centre + uniform_sample_sphere(u2()) * (0.5 + 6.0 * u2().x);
+            let reference =
+                Interaction { p: from, p_error: Vec3::splat(1e-6), n: Vec3::Z, time: 0.0 };
+            let ray = match i % 3 {
+                // A shadow ray to a point the light sampled.
+                0 => match s.sample_from(&reference, u2()) {
+                    Some((it, _)) => reference.spawn_ray_to(&it),
+                    None => continue,
+                },
+                // A segment ending near the surface, either side.
+                1 => {
+                    let target = centre + uniform_sample_sphere(u2()) * 1.5;
+                    let mut r = Ray::new(from, target - from, 0.0);
+                    r.t_max = 1.0 + (u2().x - 0.5) * 2e-4;
+                    r
+                }
+                // A grazing ray: aimed at a tangent point.
+                _ => {
+                    let w = (centre - from).normalize();
+                    let (a, _) = coordinate_system(w);
+                    let target = centre + a * 1.5 * (1.0 + (u2().x - 0.5) * 1e-5);
+                    Ray::new(from, target - from, 0.0)
+                }
+            };
+            let want = interval_only(&s, &ray);
+            assert_eq!(s.intersect_p(&ray), want, "ray {i}: {ray:?}");
+            assert_eq!(s.intersect(&ray).is_some(), want, "ray {i}");
+            if want {
+                hits += 1;
+            } else {
+                misses += 1;
+            }
+        }
+        assert!(hits > 1000 && misses > 1000, "{hits} hits, {misses} misses");
+    }
 
     /// Hits agree with a double-precision solution far from the origin and for huge radii.
     #[test]
