@@ -12,7 +12,8 @@
 
 use super::lowdiscrepancy::{
     compute_radical_inverse_permutations, inverse_radical_inverse, radical_inverse,
-    scrambled_radical_inverse, DigitPairs, PAIR_DIMS, PRIME_SUMS, PRIME_TABLE_SIZE,
+    radical_inverse_permutations_prefix, scrambled_radical_inverse, DigitPairs, PAIR_DIMS,
+    PRIME_SUMS, PRIME_TABLE_SIZE,
 };
 use super::pixel::{GlobalSampler, GlobalSequence};
 use farm_common::geometry::{Bounds2i, Point2i};
@@ -22,8 +23,21 @@ use std::sync::OnceLock;
 /// Largest pixel resolution enumerated by the first two dimensions.
 const MAX_RESOLUTION: i32 = 128;
 
-/// pbrt-v3's permutations, computed once per process like its static table.
+/// Dimensions whose permutations are made when the first Halton sampler
+/// is: more than a Whitted render draws unless its scene has dozens of lights.
+const EAGER_DIMS: usize = 64;
+
+/// pbrt-v3's permutations of the first [`EAGER_DIMS`] bases. pbrt-v3 makes
+/// all 1000 (3.7 M entries, 7 MB, a sixth of a small scene's start-up);
+/// the rest wait for [`all_permutations`].
 fn permutations() -> &'static [u16] {
+    static PERMS: OnceLock<Vec<u16>> = OnceLock::new();
+    PERMS.get_or_init(|| radical_inverse_permutations_prefix(&mut Rng::default(), EAGER_DIMS))
+}
+
+/// All of pbrt-v3's permutations, made on the first use of a dimension past
+/// [`EAGER_DIMS`]; they start with the same values as [`permutations`].
+fn all_permutations() -> &'static [u16] {
     static PERMS: OnceLock<Vec<u16>> = OnceLock::new();
     PERMS.get_or_init(|| compute_radical_inverse_permutations(&mut Rng::default()))
 }
@@ -99,7 +113,8 @@ impl Halton {
     }
 
     fn permutation_for_dimension(&self, dim: usize) -> &[u16] {
-        &self.perms[PRIME_SUMS[dim] as usize..]
+        let perms = if dim < EAGER_DIMS { self.perms } else { all_permutations() };
+        &perms[PRIME_SUMS[dim] as usize..]
     }
 }
 
@@ -155,6 +170,21 @@ mod tests {
 
     fn bounds(w: i32, h: i32) -> Bounds2i {
         Bounds2i::new(Point2i::new(0, 0), Point2i::new(w, h))
+    }
+
+    /// Dimensions on both sides of the eager prefix read pbrt-v3's table.
+    #[test]
+    fn dimensions_past_the_eager_prefix_use_the_full_table() {
+        let h = Halton::new(bounds(64, 64), false);
+        let full = compute_radical_inverse_permutations(&mut Rng::default());
+        for dim in [2, 17, 18, EAGER_DIMS - 1, EAGER_DIMS, 500, 999] {
+            for index in [1i64, 12_345, 987_654_321] {
+                let want =
+                    scrambled_radical_inverse(dim, index as u64, &full[PRIME_SUMS[dim] as usize..]);
+                let got = h.sample_dimension(Point2i::new(0, 0), index, dim);
+                assert_eq!(got.to_bits(), want.to_bits(), "dim {dim}, index {index}");
+            }
+        }
     }
 
     #[test]

@@ -148,10 +148,19 @@ impl DigitPairs {
 /// bases, concatenated; base `i`'s starts at `PRIME_SUMS[i]` (pbrt-v3
 /// `ComputeRadicalInversePermutations`).
 pub fn compute_radical_inverse_permutations(rng: &mut Rng) -> Vec<u16> {
-    let total: usize = PRIMES[..PRIME_TABLE_SIZE].iter().map(|&p| p as usize).sum();
+    radical_inverse_permutations_prefix(rng, PRIME_TABLE_SIZE)
+}
+
+/// The permutations of the first `bases` prime bases only: the same values
+/// as the first `PRIME_SUMS[bases]` entries of
+/// [`compute_radical_inverse_permutations`], since the shuffles draw from
+/// the generator in base order.
+pub fn radical_inverse_permutations_prefix(rng: &mut Rng, bases: usize) -> Vec<u16> {
+    let bases = bases.min(PRIME_TABLE_SIZE);
+    let total: usize = PRIMES[..bases].iter().map(|&p| p as usize).sum();
     let mut perms = vec![0u16; total];
     let mut start = 0;
-    for &p in &PRIMES[..PRIME_TABLE_SIZE] {
+    for &p in &PRIMES[..bases] {
         let p = p as usize;
         let chunk = &mut perms[start..start + p];
         for (j, v) in chunk.iter_mut().enumerate() {
@@ -354,6 +363,16 @@ mod tests {
         let perm: Vec<u16> = (0..7).collect();
         for i in 0..500u64 {
             assert_eq!(scrambled_radical_inverse(3, i, &perm), radical_inverse(3, i));
+        }
+    }
+
+    #[test]
+    fn permutation_prefixes_match_the_full_table() {
+        let full = compute_radical_inverse_permutations(&mut Rng::default());
+        for bases in [1, 2, 18, 64] {
+            let prefix = radical_inverse_permutations_prefix(&mut Rng::default(), bases);
+            let end = PRIMES[..bases].iter().map(|&p| p as usize).sum::<usize>();
+            assert_eq!(prefix, full[..end], "{bases} bases");
         }
     }
 
