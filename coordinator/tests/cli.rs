@@ -221,16 +221,21 @@ fn bench_tabulates_each_reference_scene() {
     let dir = temp_dir("bench");
     std::fs::create_dir_all(dir.join("scenes/ball")).expect("dirs");
     std::fs::create_dir_all(dir.join("reference")).expect("dirs");
+    // Enough work (96×96 pixels at 64 spp) for the CPU time, counted in
+    // 10 ms ticks, to be above zero.
     std::fs::write(
         dir.join("scenes/ball/ball-whitted.pbrt"),
-        format!("{HEAD}Material \"matte\"\nShape \"sphere\"\nWorldEnd\n"),
+        "Camera \"perspective\"\nSampler \"halton\" \"integer pixelsamples\" 64\n\
+         Film \"image\" \"integer xresolution\" 96 \"integer yresolution\" 96\n\
+         WorldBegin\nLightSource \"point\" \"point from\" [0 0 -5]\n\
+         Material \"matte\"\nShape \"sphere\"\nWorldEnd\n",
     )
     .expect("write");
     std::fs::write(
         dir.join("reference/README.md"),
         "| scene | file | res | sampler, spp | relMSE | gt | wall | CPU | RSS | cam | shadow |\n\
          |---|---|---|---|---|---|---|---|---|---|---|\n\
-         | ball | ball-whitted.pbrt | 8×8 | halton 16 | 1e-3 | gt256 | 0.5 | 1.0 | 10 | 1.1k | 2k |\n",
+         | ball | ball-whitted.pbrt | 96×96 | halton 64 | 1e-3 | gt256 | 0.5 | 1.0 | 10 | 590k | 2k |\n",
     )
     .expect("write");
     let csv = dir.join("bench.csv");
@@ -247,8 +252,8 @@ fn bench_tabulates_each_reference_scene() {
     let row: Vec<&str> = table.lines().nth(1).expect("a row").split(',').collect();
     assert_eq!(row[0], "ball");
     let num = |i: usize| row[i].parse::<f64>().unwrap_or_else(|_| panic!("column {i}: {table}"));
-    // 8×8 pixels at 16 spp grown by the filter: camera rays at least 1024.
-    assert!(num(5) >= 1024.0, "{table}");
+    // 96×96 pixels at 64 spp grown by the filter: camera rays at least 96²·64.
+    assert!(num(5) >= 96.0 * 96.0 * 64.0, "{table}");
     assert!(num(3) > 0.0 && num(7) > 1.0, "CPU seconds and peak RSS: {table}");
     assert_eq!((num(8), num(9), num(10)), (0.5, 1.0, 10.0), "{table}");
     assert!(stdout.contains("geometric mean"), "{stdout}");
