@@ -30,18 +30,17 @@ pub(super) const STACK_SIZE: usize = 64;
 #[derive(Clone, Copy, Debug, PartialEq)]
 #[repr(C, align(32))]
 pub(super) struct LinearNode {
-    /// `[min, max]`, so that `b[dir_is_neg]` picks the near corner.
+    /// `[min, max]`.
     pub(super) b: [[f32; 3]; 2],
     pub(super) offset: u32,
     pub(super) n_prims: u16,
-    pub(super) axis: u8,
 }
 
 const _: () = assert!(std::mem::size_of::<LinearNode>() == 32);
 
 impl LinearNode {
-    pub(super) fn new(bounds: &Bounds3f, offset: u32, n_prims: u16, axis: u8) -> Self {
-        LinearNode { b: [bounds.min.to_array(), bounds.max.to_array()], offset, n_prims, axis }
+    pub(super) fn new(bounds: &Bounds3f, offset: u32, n_prims: u16) -> Self {
+        LinearNode { b: [bounds.min.to_array(), bounds.max.to_array()], offset, n_prims }
     }
 
     fn bounds(&self) -> Bounds3f {

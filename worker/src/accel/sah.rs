@@ -104,8 +104,7 @@ pub(super) fn build_node(
 ) {
     let n = info.len();
     let bounds = ext.bounds();
-    let leaf =
-        |nodes: &mut Vec<LinearNode>| nodes.push(LinearNode::new(&bounds, base, n as u16, 0));
+    let leaf = |nodes: &mut Vec<LinearNode>| nodes.push(LinearNode::new(&bounds, base, n as u16));
     if n == 1 {
         return leaf(nodes);
     }
@@ -130,7 +129,7 @@ pub(super) fn build_node(
         };
     // Interior node: first child follows, second child's index patched in.
     let me = nodes.len();
-    nodes.push(LinearNode::new(&bounds, 0, 0, dim as u8));
+    nodes.push(LinearNode::new(&bounds, 0, 0));
     let (left, right) = info.split_at_mut(mid);
     let right_base = base + mid as u32;
     if n > PARALLEL_THRESHOLD && rayon::current_num_threads() > 1 {

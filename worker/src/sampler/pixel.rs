@@ -262,15 +262,14 @@ impl<S: GlobalSequence> GlobalSampler<S> {
     /// The next 1D value, skipping the dimensions used by arrays.
     #[inline]
     pub fn get_1d(&mut self) -> f32 {
-        self.skip_1d();
-        let d = self.dimension - 1;
+        let d = self.next_dimensions(1);
         self.seq.sample_dimension(self.core.current_pixel, self.interval_sample_index, d)
     }
 
     /// The next 2D value, skipping the dimensions used by arrays.
     #[inline]
     pub fn get_2d(&mut self) -> Vec2 {
-        let d = self.next_2d_dimension();
+        let d = self.next_dimensions(2);
         let (p, i) = (self.core.current_pixel, self.interval_sample_index);
         Vec2::new(self.seq.sample_dimension(p, i, d), self.seq.sample_dimension(p, i, d + 1))
     }
@@ -279,24 +278,23 @@ impl<S: GlobalSequence> GlobalSampler<S> {
     /// are the ones [`GlobalSampler::get_1d`] would have left.
     #[inline]
     pub fn skip_1d(&mut self) {
-        if self.dimension >= ARRAY_START_DIM && self.dimension < self.array_end_dim {
-            self.dimension = self.array_end_dim;
-        }
-        self.dimension += 1;
+        self.next_dimensions(1);
     }
 
     /// Passes over the next 2D value without computing it.
     #[inline]
     pub fn skip_2d(&mut self) {
-        self.next_2d_dimension();
+        self.next_dimensions(2);
     }
 
+    /// Takes the next `n` (1 or 2) dimensions, jumping past the arrays'
+    /// dimensions if they would overlap them; returns the first.
     #[inline]
-    fn next_2d_dimension(&mut self) -> usize {
-        if self.dimension + 1 >= ARRAY_START_DIM && self.dimension < self.array_end_dim {
+    fn next_dimensions(&mut self, n: usize) -> usize {
+        if self.dimension + n > ARRAY_START_DIM && self.dimension < self.array_end_dim {
             self.dimension = self.array_end_dim;
         }
-        self.dimension += 2;
-        self.dimension - 2
+        self.dimension += n;
+        self.dimension - n
     }
 }

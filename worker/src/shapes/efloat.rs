@@ -279,10 +279,7 @@ impl Placement {
     #[inline]
     pub(crate) fn efloat_ray(&self, r: &Ray) -> (Ray, [EFloat; 3], [EFloat; 3]) {
         let (ray, oe, de) = self.object_ray(r);
-        let o =
-            [EFloat::new(ray.o.x, oe.x), EFloat::new(ray.o.y, oe.y), EFloat::new(ray.o.z, oe.z)];
-        let d =
-            [EFloat::new(ray.d.x, de.x), EFloat::new(ray.d.y, de.y), EFloat::new(ray.d.z, de.z)];
+        let (o, d) = efloat_coords(&ray, oe, de);
         (ray, o, d)
     }
 
@@ -297,6 +294,15 @@ impl Placement {
     pub(crate) fn render_hit(&self, si: &SurfaceInteraction) -> SurfaceInteraction {
         si.transform(&self.render_from_object)
     }
+}
+
+/// An object-space ray's origin and direction as [`EFloat`]s, given
+/// their error bounds (from [`Placement::object_ray`]).
+#[inline]
+pub(crate) fn efloat_coords(ray: &Ray, oe: Vec3, de: Vec3) -> ([EFloat; 3], [EFloat; 3]) {
+    let o = [EFloat::new(ray.o.x, oe.x), EFloat::new(ray.o.y, oe.y), EFloat::new(ray.o.z, oe.z)];
+    let d = [EFloat::new(ray.d.x, de.x), EFloat::new(ray.d.y, de.y), EFloat::new(ray.d.z, de.z)];
+    (o, d)
 }
 
 /// Absolute error of `o + t d` per axis (used by cone, paraboloid, hyperboloid).

@@ -1,7 +1,9 @@
 //! Partial spheres (pbrt-v3 `shapes/sphere.cpp`):
 //! `Shape "sphere" "float radius" 1 "float zmin" -1 "float zmax" 1 "float phimax" 360`.
 
-use super::efloat::{nearest_hit, phi_of, quadratic_with_root, weingarten, EFloat, Placement};
+use super::efloat::{
+    efloat_coords, nearest_hit, phi_of, quadratic_with_root, weingarten, EFloat, Placement,
+};
 use crate::interaction::{Interaction, SurfaceInteraction};
 use crate::sampling::uniform_sample_sphere;
 use farm_common::geometry::{
@@ -97,16 +99,20 @@ impl Sphere {
         if -proj - half > ray.t_max as f64 + slack || -proj + half < -slack {
             return None;
         }
-        let o =
-            [EFloat::new(ray.o.x, oe.x), EFloat::new(ray.o.y, oe.y), EFloat::new(ray.o.z, oe.z)];
-        let d =
-            [EFloat::new(ray.d.x, de.x), EFloat::new(ray.d.y, de.y), EFloat::new(ray.d.z, de.z)];
+        let (o, d) = efloat_coords(&ray, oe, de);
+        let (a, b, c) = self.coefficients(&o, &d);
+        let (t0, t1) = quadratic_with_root(a, b, c, root);
+        Some((ray, t0, t1))
+    }
+
+    /// The ray–sphere quadratic `a t² + b t + c` with error bounds.
+    #[inline]
+    fn coefficients(&self, o: &[EFloat; 3], d: &[EFloat; 3]) -> (EFloat, EFloat, EFloat) {
         let a = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
         let b = 2.0 * (d[0] * o[0] + d[1] * o[1] + d[2] * o[2]);
         let rad = EFloat::from(self.radius);
         let c = o[0] * o[0] + o[1] * o[1] + o[2] * o[2] - rad * rad;
-        let (t0, t1) = quadratic_with_root(a, b, c, root);
-        Some((ray, t0, t1))
+        (a, b, c)
     }
 
     fn hit(&self, r: &Ray) -> Option<(Ray, EFloat, (Vec3, f32))> {
@@ -254,10 +260,7 @@ mod tests {
     /// whether it accepts a root in the ray's range.
     fn interval_only(s: &Sphere, r: &Ray) -> bool {
         let (ray, o, d) = s.placement.efloat_ray(r);
-        let a = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
-        let b = 2.0 * (d[0] * o[0] + d[1] * o[1] + d[2] * o[2]);
-        let rad = EFloat::from(s.radius);
-        let c = o[0] * o[0] + o[1] * o[1] + o[2] * o[2] - rad * rad;
+        let (a, b, c) = s.coefficients(&o, &d);
         let (od, dd) = (ray.o.as_dvec3(), ray.d.as_dvec3());
         let len = (od - dd * (dd.dot(od) / dd.length_squared())).length();
         let r64 = s.radius as f64;
