@@ -12,6 +12,8 @@ pub mod film;
 pub mod geometry;
 /// Typed identifiers.
 pub mod ids;
+/// The RGB image type, its readers and writers, and image metrics.
+pub mod image;
 /// pbrt-v3's PCG32 random number generator.
 pub mod rng;
 /// The scene description: entities, parameters and file locations.

@@ -3,7 +3,7 @@
 //! Every film pixel keeps its sums over all samples and over the second half
 //! of its samples, so the film holds two half-images A and B and the full
 //! image F ≈ (A + B) / 2. The sampler says which half a sample is in
-//! (`farm_worker::sampler::Halves`) so that each half covers the pixel.
+//! (`farm_common::film::Halves`) so that each half covers the pixel.
 //! Their difference D = F − A = (B − A) / 2 is the change the second half
 //! of the samples made. How E[D²] relates to the
 //! full image's mean squared error depends on how the samples relate:

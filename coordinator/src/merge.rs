@@ -4,9 +4,9 @@
 //! they were, or in what order results came back.
 
 use crate::estimate::{ErrorEstimate, Samples};
-use crate::output::RgbImage;
 use farm_common::film::{FilmGeometry, FilmTile};
 use farm_common::ids::TileId;
+use farm_common::image::RgbImage;
 use std::collections::BTreeMap;
 
 /// Why a tile result was refused.

@@ -9,9 +9,9 @@
 
 use crate::estimate::ErrorEstimate;
 use crate::merge::{Accepted, Film};
-use crate::output::RgbImage;
 use farm_common::film::{FilmGeometry, FilmTile};
 use farm_common::ids::{JobId, TileId, WorkerId};
+use farm_common::image::RgbImage;
 use farm_common::stats::RayStats;
 use std::collections::{BTreeMap, BTreeSet, HashMap, HashSet, VecDeque};
 use std::time::{Duration, Instant};
@@ -441,6 +441,17 @@ impl Scheduler {
         info!(job = job.0, "job cancelled");
         out.notify(job, JobUpdate::Failed("the job was cancelled".into()));
         self.fill(out);
+        true
+    }
+
+    /// Fails an active job that cannot finish (an embedded render whose
+    /// only worker may take none of its remaining tiles); returns whether
+    /// it was active.
+    pub fn abandon(&mut self, job: JobId, reason: String, out: &mut impl Outbox) -> bool {
+        if !self.jobs.get(&job).is_some_and(|j| j.state.is_active()) {
+            return false;
+        }
+        self.fail(job, reason, out);
         true
     }
 

@@ -22,3 +22,10 @@ pub const MAX_MESSAGE_SIZE: usize = 64 * 1024 * 1024;
 
 /// Size of the pieces blobs are streamed in.
 pub const BLOB_CHUNK_SIZE: usize = 1024 * 1024;
+
+/// Tiles a worker of `threads` render threads holds when its `Hello` asks
+/// for 0 (the default): 4 × threads + 2, enough to keep every thread busy
+/// over a round trip to the coordinator.
+pub fn default_in_flight(threads: usize) -> u32 {
+    u32::try_from(threads.max(1)).unwrap_or(u32::MAX / 2).saturating_mul(4).saturating_add(2)
+}

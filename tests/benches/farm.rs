@@ -2,22 +2,22 @@
 //!
 //! 1. Farm overhead: one scene rendered embedded (`farm submit`) and through
 //!    a coordinator and one worker *process* on loopback, which needs
-//!    `cargo build --release -p farm-coordinator` first.
+//!    `cargo build --release -p farm-cli` first.
 //! 2. Coordinator capacity: an in-process coordinator fed by many fake
 //!    workers that answer every assignment at once with a precomputed tile,
 //!    so the only real work is the coordinator's (and the client's).
 
+use farm_cli::client::{self, RemoteOptions};
+use farm_cli::embedded::{self as submit, SubmitOptions};
 use farm_common::film::FilmGeometry;
 use farm_common::ids::TileId;
-use farm_coordinator::client::{self, RemoteOptions};
 use farm_coordinator::server::{serve, ServerConfig};
-use farm_coordinator::submit::{self, SubmitOptions};
 use farm_proto::v1::{
     self, coordinator_client::CoordinatorClient, coordinator_message, tile_result, worker_message,
 };
 use farm_proto::PROTOCOL_VERSION;
-use farm_worker::render::film_and_sampler;
-use farm_worker::RenderOptions;
+use farm_render::render::film_and_sampler;
+use farm_render::RenderOptions;
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Stdio};
@@ -159,7 +159,7 @@ fn overhead_table(rt: &Runtime) {
     println!("Farm overhead: embedded (2 threads) vs coordinator + 1 worker process (2 threads)");
     let Some(bin) = farm_binary() else {
         println!("  SKIPPED: no `farm` binary beside this bench; run");
-        println!("  `cargo build --release -p farm-coordinator --bin farm` first.");
+        println!("  `cargo build --release -p farm-cli --bin farm` first.");
         return;
     };
     let mut scenes =
@@ -354,7 +354,7 @@ fn capacity_table(rt: &Runtime) {
     std::fs::create_dir_all(&dir).expect("temp dir");
     let scene = dir.join("capacity.pbrt");
     std::fs::write(&scene, CAPACITY_SCENE).expect("write scene");
-    let (desc, _) = farm_coordinator::scene::parse_str(CAPACITY_SCENE, "capacity.pbrt", &dir)
+    let (desc, _) = farm_scene::parse_str(CAPACITY_SCENE, "capacity.pbrt", &dir)
         .expect("capacity scene parses");
     let (geometry, ..) =
         film_and_sampler(&desc, &RenderOptions { spp: None, ..Default::default() });

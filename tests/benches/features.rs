@@ -6,8 +6,8 @@
 //! seconds, best and median of FARM_RUNS runs (default 5). Set FARM_SCENE
 //! to run one scene.
 
-use farm_coordinator::bench::cpu_seconds;
-use farm_coordinator::submit::{self, SubmitOptions};
+use farm_cli::bench::cpu_seconds;
+use farm_cli::embedded::{self as submit, SubmitOptions};
 use farm_tests::{reference_scenes, shared_dir};
 
 fn best_and_median(mut v: Vec<f64>) -> (f64, f64) {

@@ -1,4 +1,4 @@
-//! `cargo build --release -p farm-coordinator --bin farm && cargo bench -p
+//! `cargo build --release -p farm-cli --bin farm && cargo bench -p
 //! farm-tests --bench mesh`: how start-up (PLY read + BVH build), the cost
 //! per ray and memory grow with the triangle count. Writes binary PLY
 //! spheres of about 10k, 100k, 1M and 4M triangles (FARM_MESH_SIZES, e.g.
@@ -6,7 +6,7 @@
 //! thread (RAYON_NUM_THREADS=1) and prints start-up seconds, start-up per
 //! N·log₂N, nanoseconds per ray, peak RSS and bytes per triangle.
 
-use farm_coordinator::bench::Measured;
+use farm_cli::bench::Measured;
 use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -66,7 +66,7 @@ fn farm_binary() -> PathBuf {
 fn main() {
     let farm = farm_binary();
     if !farm.is_file() {
-        eprintln!("SKIPPED: build the farm binary first: cargo build --release -p farm-coordinator --bin farm");
+        eprintln!("SKIPPED: build the farm binary first: cargo build --release -p farm-cli --bin farm");
         return;
     }
     let sizes: Vec<usize> = std::env::var("FARM_MESH_SIZES")

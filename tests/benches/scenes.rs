@@ -3,8 +3,8 @@
 //! time and rays per second next to pbrt-v3's numbers from the reference
 //! README. Set FARM_SCENE to run one scene, FARM_THREADS to pick the thread count.
 
-use farm_coordinator::bench::cpu_seconds;
-use farm_coordinator::submit::{self, SubmitOptions};
+use farm_cli::bench::cpu_seconds;
+use farm_cli::embedded::{self as submit, SubmitOptions};
 use farm_tests::{reference_scenes, shared_dir};
 use std::time::Instant;
 

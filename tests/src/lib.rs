@@ -5,8 +5,8 @@
 /// An in-process farm.
 pub mod cluster;
 
-use farm_coordinator::output::RgbImage;
-use farm_coordinator::submit::{self, RenderSummary, SubmitOptions};
+use farm_cli::embedded::{self as submit, RenderSummary, SubmitOptions};
+use farm_common::image::RgbImage;
 use std::path::{Path, PathBuf};
 
 /// `../shared` beside the repository (or `$FARM_SHARED`), if present.
@@ -17,7 +17,7 @@ pub fn shared_dir() -> Option<PathBuf> {
     dir.join("reference/README.md").is_file().then_some(dir)
 }
 
-pub use farm_coordinator::bench::{reference_scenes, ReferenceScene};
+pub use farm_cli::bench::{reference_scenes, ReferenceScene};
 
 /// Writes `source` to a temporary scene file and renders it in-process.
 pub fn render_text(name: &str, source: &str, opts: &SubmitOptions) -> RenderSummary {

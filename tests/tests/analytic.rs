@@ -1,6 +1,6 @@
 //! Scenes whose Whitted image is known in closed form.
 
-use farm_coordinator::submit::SubmitOptions;
+use farm_cli::embedded::SubmitOptions;
 use farm_tests::{pixel, render_text};
 
 fn opts() -> SubmitOptions {

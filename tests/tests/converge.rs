@@ -3,7 +3,7 @@
 //! relMSE against pbrt-v3's ground truth at every sample count from 4 up:
 //! on two Halton scenes and two (0,2)-sequence scenes.
 
-use farm_coordinator::converge::{self, Against, ConvergeOptions};
+use farm_cli::converge::{self, Against, ConvergeOptions};
 use farm_tests::shared_dir;
 
 #[test]

@@ -1,7 +1,7 @@
 //! The same scene and seed give the same bits whatever the thread count.
 
-use farm_coordinator::output::{write_image, ImageMetadata};
-use farm_coordinator::submit::{self, SubmitOptions};
+use farm_cli::embedded::{self as submit, SubmitOptions};
+use farm_common::image::{write_image, ImageMetadata};
 use std::path::Path;
 
 fn example() -> std::path::PathBuf {
@@ -17,7 +17,7 @@ fn renders_are_bit_identical_across_runs_and_thread_counts() {
     let one = render(1);
     let two = render(2);
     let again = render(2);
-    let bits = |img: &farm_coordinator::output::RgbImage| -> Vec<u32> {
+    let bits = |img: &farm_common::image::RgbImage| -> Vec<u32> {
         img.pixels.iter().flat_map(|p| p.map(f32::to_bits)).collect()
     };
     assert_eq!(bits(&one.image), bits(&two.image), "1 vs 2 threads");

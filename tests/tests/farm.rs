@@ -1,9 +1,9 @@
 //! The farm over gRPC on loopback: whatever the number of workers, however
 //! they fail, the image is bit-identical to the embedded render.
 
-use farm_coordinator::client::{self, RemoteOptions};
-use farm_coordinator::output::RgbImage;
-use farm_coordinator::submit::{self, SubmitOptions};
+use farm_cli::client::{self, RemoteOptions};
+use farm_cli::embedded::{self as submit, SubmitOptions};
+use farm_common::image::RgbImage;
 use farm_proto::v1::{
     self, coordinator_client::CoordinatorClient, coordinator_message, worker_message,
 };
@@ -139,10 +139,10 @@ async fn duplicates_bad_tiles_and_unknown_jobs_are_refused_without_harm() {
     else {
         panic!("expected a second assignment");
     };
-    let (desc, _) = farm_coordinator::scene::parse_file(&scene()).expect("scene");
-    let (renderer, _) = farm_worker::Renderer::new(
+    let (desc, _) = farm_scene::parse_file(&scene()).expect("scene");
+    let (renderer, _) = farm_render::Renderer::new(
         &desc,
-        &farm_worker::RenderOptions { spp: Some(SPP), ..Default::default() },
+        &farm_render::RenderOptions { spp: Some(SPP), ..Default::default() },
     )
     .expect("renderer");
     let (tile, _) = renderer.render_tile(farm_common::ids::TileId(b.tile));

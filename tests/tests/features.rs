@@ -3,10 +3,10 @@
 //! dimensions leaves the image bit for bit, and
 //! the analysis agrees with the textures the renderer builds.
 
-use farm_coordinator::submit::SubmitOptions;
+use farm_cli::embedded::SubmitOptions;
+use farm_render::features::Features;
+use farm_render::{RenderOptions, Renderer};
 use farm_tests::render_text;
-use farm_worker::features::Features;
-use farm_worker::{RenderOptions, Renderer};
 
 const HEAD: &str = "LookAt 0 1 -4  0 0 0  0 1 0\nCamera \"perspective\" \"float fov\" 45\n\
     Sampler \"halton\" \"integer pixelsamples\" 4\n\
@@ -25,9 +25,9 @@ fn analyse(name: &str, source: &str) -> (Features, bool) {
     std::fs::create_dir_all(&dir).expect("temp dir");
     let path = dir.join(format!("{name}.pbrt"));
     std::fs::write(&path, source).expect("write");
-    let (desc, _) = farm_coordinator::scene::parse_file(&path).expect("parses");
+    let (desc, _) = farm_scene::parse_file(&path).expect("parses");
     let (r, _) = Renderer::new(&desc, &RenderOptions::default()).expect("builds");
-    let built = farm_worker::textures::uses_differentials(&r.scene.textures);
+    let built = farm_render::textures::uses_differentials(&r.scene.textures);
     (r.features.clone(), built)
 }
 
@@ -49,7 +49,7 @@ fn an_untextured_static_scene_skips_differentials_and_renders_the_same_bits() {
         let skipped = render_text("plain", &scene, &SubmitOptions::default());
         let all =
             render_text("plain", &scene, &SubmitOptions { all_paths: true, ..Default::default() });
-        let bits = |s: &farm_coordinator::submit::RenderSummary| -> Vec<u32> {
+        let bits = |s: &farm_cli::embedded::RenderSummary| -> Vec<u32> {
             s.image.pixels.iter().flat_map(|p| p.map(f32::to_bits)).collect()
         };
         assert!(skipped.image.pixels.iter().any(|p| p[1] > 0.0), "image is not black");

@@ -1,9 +1,9 @@
 //! Every scene in `../shared/scenes/` renders at its file's settings within
 //! 2× pbrt-v3's own error against the ground truth, with no non-finite pixel.
 
-use farm_coordinator::metrics;
-use farm_coordinator::output::read_exr;
-use farm_coordinator::submit::{self, SubmitOptions};
+use farm_cli::embedded::{self as submit, SubmitOptions};
+use farm_common::image as metrics;
+use farm_common::image::read_file;
 use farm_tests::{reference_scenes, shared_dir};
 
 #[test]
@@ -34,7 +34,7 @@ fn shared_scenes_match_pbrt_v3_within_twice_its_error() {
                 continue;
             }
         };
-        let gt = read_exr(&reference).expect("reference image");
+        let gt = read_file(&reference).expect("reference image");
         let Some(err) = metrics::compare(&summary.image, &gt) else {
             failures.push(format!(
                 "{}: size {}×{} differs from the reference",
@@ -44,7 +44,7 @@ fn shared_scenes_match_pbrt_v3_within_twice_its_error() {
         };
         let bound = 2.0 * s.pbrt_rel_mse;
         // How far we are from pbrt-v3's own render at the same settings (for information).
-        let pbrt16 = read_exr(&shared.join("reference").join(&s.scene).join("whitted.exr"))
+        let pbrt16 = read_file(&shared.join("reference").join(&s.scene).join("whitted.exr"))
             .ok()
             .and_then(|p| metrics::compare(&summary.image, &p))
             .map_or(f64::NAN, |e| e.rel_mse);

@@ -3,15 +3,15 @@
 //! shading and lighting edge cases, and non-finite data in the scene file.
 //! The intersection-level part of the suite is `worker/tests/numerics.rs`.
 
+use farm_cli::embedded::{RenderSummary, SubmitOptions};
 use farm_common::geometry::{DVec3, Vec2, Vec3};
-use farm_coordinator::metrics::compare;
-use farm_coordinator::output::RgbImage;
-use farm_coordinator::scene::parse_str;
-use farm_coordinator::submit::{RenderSummary, SubmitOptions};
+use farm_common::image::compare;
+use farm_common::image::RgbImage;
+use farm_render::lights::Light;
+use farm_render::sampling::CameraSample;
+use farm_render::{RenderOptions, Renderer};
+use farm_scene::parse_str;
 use farm_tests::{pixel, render_text};
-use farm_worker::lights::Light;
-use farm_worker::sampling::CameraSample;
-use farm_worker::{RenderOptions, Renderer};
 use std::f64::consts::PI;
 use std::path::Path;
 

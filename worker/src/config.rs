@@ -53,10 +53,7 @@ impl WorkerConfig {
     }
 }
 
-/// Tiles a worker of `threads` render threads holds when not told: 4 × threads + 2.
-pub fn default_in_flight(threads: usize) -> u32 {
-    u32::try_from(threads.max(1)).unwrap_or(u32::MAX / 2).saturating_mul(4).saturating_add(2)
-}
+pub use farm_proto::default_in_flight;
 
 #[cfg(test)]
 mod tests {

@@ -1,61 +1,27 @@
-//! The farm's renderer: builds a scene from a `SceneDescription` and renders
-//! 16×16 film tiles with pbrt-v3's Whitted integrator.
+//! The worker process: registers with a coordinator, keeps one `Work`
+//! stream open, fetches each job's scene and assets once (content
+//! addressed), builds a renderer per scene and renders the tiles it is
+//! assigned on a dedicated rayon pool, sending each film tile back as it is
+//! done. The rendering itself is `farm-render`'s.
 #![warn(missing_docs)]
 
-/// Acceleration structures.
-pub mod accel;
+/// One tile assignment, rendered.
+pub mod assignment;
 /// Content-addressed blobs fetched from the coordinator.
-pub mod blobs;
-/// Reflection models.
-pub mod bxdf;
-/// Cameras.
-pub mod cameras;
+pub mod blob_cache;
 /// Worker settings.
 pub mod config;
-/// Errors building a renderer.
-pub mod error;
-/// What a scene uses, and so what a render can skip.
-pub mod features;
-/// Reconstruction filters.
-pub mod filters;
 /// The grpc.health.v1 service for probes.
 pub mod health;
-/// Image decoding and MIP maps.
-pub mod image;
-/// The Whitted integrator.
-pub mod integrator;
-/// Surface hits and points.
-pub mod interaction;
-/// Light sources.
-pub mod lights;
-/// Materials.
-pub mod materials;
 /// The tokio-to-rayon bridge for CPU-bound work.
 pub mod pool;
-/// Primitives, aggregates and instances.
-pub mod primitive;
-/// Rendering tiles.
-pub mod render;
 /// Built renderers cached by scene and spp.
-pub mod renderers;
-/// Sample generators.
-pub mod sampler;
-/// Warping samples to distributions.
-pub mod sampling;
-/// The renderable scene.
-pub mod scene;
+pub mod renderer_cache;
 /// The session with the coordinator.
-pub mod service;
-/// Geometric shapes.
-pub mod shapes;
+pub mod session;
 /// Test helpers: a tiny scene and a fake coordinator.
 #[cfg(test)]
 pub(crate) mod testing;
-/// Textures.
-pub mod textures;
-/// One tile assignment, rendered.
-pub mod tiles;
 
 pub use config::WorkerConfig;
-pub use render::{RenderOptions, Renderer};
-pub use service::{run, WorkerError, WorkerSummary};
+pub use session::{run, WorkerError, WorkerSummary};

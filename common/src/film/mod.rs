@@ -1,8 +1,13 @@
 //! The film's pixel and sample bounds, its grid of 16×16 tiles, and film
 //! tiles of weighted sums (pbrt-v3 `core/film.h`).
 
+mod layout;
 mod tile;
 mod tiling;
 
+pub use layout::{
+    default_filter_radius, filter_radius, is_power_of_2, layout, round_up_pow2, sample_count,
+    FilmLayout, Halves, SamplerKind, MAX_MIN_DIST_MAX_SPP,
+};
 pub use tile::{FilmTile, Pixel};
 pub use tiling::{FilmGeometry, TILE_SIZE};

@@ -36,17 +36,9 @@ pub struct FilmGeometry {
     pub independent_samples: bool,
 }
 
-/// Default filter radius of each pbrt-v3 filter.
-fn default_filter_radius(name: &str) -> f32 {
-    match name {
-        "box" => 0.5,
-        "sinc" => 4.0,
-        _ => 2.0,
-    }
-}
-
 impl FilmGeometry {
-    /// The film of `desc`, and warnings for unused `Film` parameters.
+    /// The film of `desc`, and warnings for unused `Film` parameters (see
+    /// [`super::layout`] for the samples too).
     pub fn from_description(desc: &SceneDescription) -> (FilmGeometry, Vec<Warning>) {
         let fp = Params::new(&desc.film.params);
         let xres = fp.int("xresolution", 1280).max(1);
@@ -83,14 +75,7 @@ impl FilmGeometry {
         let diagonal = fp.float("diagonal", 35.0);
         let warnings = fp.unused_warnings();
 
-        let filt = Params::new(&desc.filter.params);
-        let default_r = default_filter_radius(if desc.filter.name.is_empty() {
-            "box"
-        } else {
-            &desc.filter.name
-        });
-        let filter_radius =
-            Vec2::new(filt.float("xwidth", default_r), filt.float("ywidth", default_r));
+        let filter_radius = super::filter_radius(&desc.filter);
         let mut film = FilmGeometry::new(
             Point2i::new(xres, yres),
             cropped,

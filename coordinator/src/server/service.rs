@@ -7,9 +7,7 @@ use crate::scheduler::JobSpec;
 use farm_common::ids::{JobId, WorkerId};
 use farm_proto::convert::{blob_chunks, decode_manifest};
 use farm_proto::v1::{self, coordinator_server::Coordinator, worker_message};
-use farm_proto::PROTOCOL_VERSION;
-use farm_worker::config::default_in_flight;
-use farm_worker::RenderOptions;
+use farm_proto::{default_in_flight, PROTOCOL_VERSION};
 use std::collections::HashMap;
 use std::pin::Pin;
 use std::sync::atomic::{AtomicU64, Ordering};
@@ -181,10 +179,9 @@ impl Coordinator for CoordinatorService {
             }
         }
         let spp_override = (r.spp > 0).then_some(r.spp);
-        let (geometry, _, sampler, _) = farm_worker::render::film_and_sampler(
-            &desc,
-            &RenderOptions { spp: spp_override, ..Default::default() },
-        );
+        let (layout, _) = farm_common::film::layout(&desc, spp_override);
+        let spp = layout.spp();
+        let geometry = layout.geometry;
         if geometry.cropped_pixel_bounds.is_empty() {
             return Err(Status::invalid_argument("the film has no pixels"));
         }
@@ -193,7 +190,7 @@ impl Coordinator for CoordinatorService {
             priority: r.priority,
             scene_hash: r.scene_hash,
             spp_override: r.spp,
-            spp: sampler.samples_per_pixel(),
+            spp,
             geometry,
         };
         let (reply, rx) = oneshot::channel();

@@ -1,0 +1,39 @@
+//! `farm status`: a coordinator's jobs and workers.
+
+use super::RemoteArgs;
+use std::process::ExitCode;
+
+/// Prints the jobs and the workers as two tables.
+pub async fn run(args: RemoteArgs) -> ExitCode {
+    match crate::client::status(&args.coordinator).await {
+        Ok(s) => {
+            println!(
+                "{:>6}  {:<28} {:<10} {:>13} {:>8}",
+                "job", "name", "state", "tiles", "priority"
+            );
+            for j in &s.jobs {
+                let tiles = format!("{}/{}", j.tiles_done, j.tiles_total);
+                println!(
+                    "{:>6}  {:<28} {:<10} {:>13} {:>8}",
+                    j.job_id, j.name, j.state, tiles, j.priority
+                );
+            }
+            println!();
+            println!(
+                "{:>6}  {:<28} {:>7} {:>9} {:>10}",
+                "worker", "name", "threads", "in flight", "tiles done"
+            );
+            for w in &s.workers {
+                println!(
+                    "{:>6}  {:<28} {:>7} {:>9} {:>10}",
+                    w.worker_id, w.name, w.threads, w.in_flight, w.tiles_done
+                );
+            }
+            ExitCode::SUCCESS
+        }
+        Err(e) => {
+            eprintln!("error: {e}");
+            ExitCode::FAILURE
+        }
+    }
+}

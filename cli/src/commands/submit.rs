@@ -1,0 +1,176 @@
+//! `farm submit`: render a scene here (the embedded engine) or on a farm
+//! (`--coordinator`), then write the image and print the summary.
+
+use crate::embedded::{self, SubmitError, SubmitOptions};
+use crate::EXIT_BAD_INPUT;
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+/// Arguments of `farm submit`.
+#[derive(Debug, clap::Args)]
+pub struct SubmitArgs {
+    /// The pbrt-v3 scene file.
+    pub scene: PathBuf,
+    /// Output image (.exr, .pfm or .png); default: the scene's Film filename.
+    #[arg(short, long)]
+    pub output: Option<PathBuf>,
+    /// Samples per pixel, overriding the scene's sampler.
+    #[arg(long, value_parser = clap::value_parser!(u32).range(1..))]
+    pub spp: Option<u32>,
+    /// Render threads (default: one per core).
+    #[arg(long, default_value_t = 0)]
+    pub threads: usize,
+    /// Print nothing but errors.
+    #[arg(short, long)]
+    pub quiet: bool,
+    /// Also print which features the scene uses and which per-ray work the
+    /// render skipped.
+    #[arg(short, long)]
+    pub verbose: bool,
+    /// Render on the farm run by this coordinator (e.g. http://host:7878)
+    /// instead of in this process.
+    #[arg(long, env = "FARM_COORDINATOR")]
+    pub coordinator: Option<String>,
+    /// Job priority on the farm: higher runs first.
+    #[arg(long, default_value_t = 0, allow_hyphen_values = true)]
+    pub priority: i32,
+    /// Also write the render's per-pixel estimate of its own relMSE (from
+    /// its two half-images) to this image (.exr, .pfm or .png).
+    #[arg(long, value_name = "FILE")]
+    pub error_map: Option<PathBuf>,
+}
+
+/// Renders where the arguments say.
+pub fn run(args: SubmitArgs) -> ExitCode {
+    if args.coordinator.is_some() {
+        crate::runtime::block_on(run_remote(args))
+    } else {
+        run_embedded(args)
+    }
+}
+
+async fn run_remote(args: SubmitArgs) -> ExitCode {
+    let url = args.coordinator.clone().unwrap_or_default();
+    let opts = crate::client::RemoteOptions {
+        output: args.output.clone(),
+        spp: args.spp,
+        priority: args.priority,
+    };
+    let bar = crate::progress::progress_bar(args.quiet);
+    let started = std::time::Instant::now();
+    let result = crate::client::submit(&url, &args.scene, &opts, |job, p| {
+        if bar.length().is_none() {
+            bar.set_length(p.tiles_total as u64);
+        }
+        bar.set_position(p.tiles_done as u64);
+        let secs = started.elapsed().as_secs_f64().max(1e-3);
+        bar.set_message(format!(
+            "job {job}, {} workers, {:.2} Mrays/s",
+            p.workers,
+            p.stats.total_rays() as f64 / secs / 1e6
+        ));
+    })
+    .await;
+    bar.finish_and_clear();
+    match result {
+        Ok(summary) => finish(&args, summary),
+        Err(crate::client::ClientError::Scene(e)) => {
+            eprintln!("error: {e}");
+            ExitCode::from(EXIT_BAD_INPUT)
+        }
+        Err(e) => {
+            eprintln!("error: {e}");
+            ExitCode::FAILURE
+        }
+    }
+}
+
+fn run_embedded(args: SubmitArgs) -> ExitCode {
+    let opts = SubmitOptions {
+        output: args.output.clone(),
+        spp: args.spp,
+        threads: args.threads,
+        all_paths: false,
+    };
+    let bar = crate::progress::progress_bar(args.quiet);
+    let started = std::time::Instant::now();
+    let result = embedded::render(&args.scene, &opts, |p| {
+        if bar.length().is_none() {
+            bar.set_length(p.tiles_total as u64);
+        }
+        bar.set_position(p.tiles_done as u64);
+        let secs = started.elapsed().as_secs_f64().max(1e-3);
+        bar.set_message(format!("{:.2} Mrays/s", p.stats.total_rays() as f64 / secs / 1e6));
+    });
+    bar.finish_and_clear();
+    match result {
+        Ok(summary) => finish(&args, summary),
+        Err(e) => fail(&e),
+    }
+}
+
+/// Prints warnings, writes the image and prints the summary line.
+fn finish(args: &SubmitArgs, summary: embedded::RenderSummary) -> ExitCode {
+    if !args.quiet {
+        for w in &summary.warnings {
+            eprintln!("{w}");
+        }
+    }
+    if let Err(e) = embedded::write(&summary) {
+        return fail(&e);
+    }
+    if let Some(path) = &args.error_map {
+        match &summary.error {
+            Some(error) => {
+                if let Err(e) = embedded::write_error_map(path, &summary, error) {
+                    return fail(&e);
+                }
+            }
+            None => eprintln!(
+                "warning: no error map written to {}: one sample per pixel cannot be split in two halves",
+                path.display()
+            ),
+        }
+    }
+    let s = &summary.stats;
+    let bad = s.nan_samples + s.inf_samples + s.negative_samples;
+    if bad > 0 {
+        eprintln!(
+            "warning: {bad} samples had bad radiance and were set to black ({} NaN, {} infinite, {} negative)",
+            s.nan_samples, s.inf_samples, s.negative_samples
+        );
+    }
+    if args.verbose && !args.quiet {
+        for line in summary.features.describe() {
+            println!("{line}");
+        }
+    }
+    if !args.quiet {
+        let secs = summary.render_seconds.max(1e-9);
+        let error = match &summary.error {
+            Some(e) => format!(", estimated relMSE {:.3e}", e.rel_mse),
+            None => String::new(),
+        };
+        println!(
+            "{}: {}×{}, {} spp, {:.2} s ({:.2} s start-up), {:.1}M rays ({:.2} Mrays/s){error}",
+            summary.output.display(),
+            summary.image.width,
+            summary.image.height,
+            summary.spp,
+            summary.render_seconds + summary.startup_seconds,
+            summary.startup_seconds,
+            s.total_rays() as f64 / 1e6,
+            s.total_rays() as f64 / secs / 1e6,
+        );
+    }
+    ExitCode::SUCCESS
+}
+
+/// Prints a render error and returns its exit code.
+pub fn fail(e: &SubmitError) -> ExitCode {
+    eprintln!("error: {e}");
+    match e {
+        SubmitError::Scene(_) | SubmitError::Build(_) => ExitCode::from(EXIT_BAD_INPUT),
+        _ => ExitCode::FAILURE,
+    }
+}

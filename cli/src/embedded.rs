@@ -1,0 +1,295 @@
+//! `farm submit` without a coordinator address: the coordinator's own
+//! [`Scheduler`], run in this process with one in-process worker that
+//! renders on a rayon pool. Tiles reach the worker and results come back
+//! over channels (no serialization, no sockets), so an embedded render gets
+//! the farm's retries, failure messages and ordered merge: there is one job
+//! engine, whichever way a scene is rendered.
+
+use farm_common::film::FilmTile;
+use farm_common::ids::{JobId, TileId, WorkerId};
+use farm_common::image::{self, ImageError, ImageMetadata, RgbImage};
+use farm_common::scene::Warning;
+use farm_common::stats::RayStats;
+use farm_coordinator::estimate::ErrorEstimate;
+use farm_coordinator::scheduler::{
+    Assignment, FinishedJob, JobSpec, JobUpdate, Outbox, Scheduler, SchedulerConfig,
+};
+use farm_proto::default_in_flight;
+use farm_render::features::Features;
+use farm_render::{BuildError, RenderOptions, Renderer};
+use farm_scene::SceneError;
+use std::collections::HashSet;
+use std::panic::{catch_unwind, AssertUnwindSafe};
+use std::path::{Path, PathBuf};
+use std::sync::mpsc;
+use std::sync::{Arc, Mutex, PoisonError};
+use std::time::Instant;
+
+/// Choices for one render.
+#[derive(Clone, Debug, Default)]
+pub struct SubmitOptions {
+    /// Output file (overrides the scene's `Film "string filename"`).
+    pub output: Option<PathBuf>,
+    /// Samples per pixel (overrides the sampler's `pixelsamples`).
+    pub spp: Option<u32>,
+    /// Render threads (0 = one per core).
+    pub threads: usize,
+    /// Compute ray differentials and every camera-sample dimension even
+    /// where the scene does not use them (a benchmark's baseline).
+    pub all_paths: bool,
+}
+
+/// Progress of a running render.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct Progress {
+    /// Tiles received.
+    pub tiles_done: u32,
+    /// Tiles in the job.
+    pub tiles_total: u32,
+    /// Rays traced so far.
+    pub stats: RayStats,
+}
+
+/// What a finished render produced.
+#[derive(Clone, Debug)]
+pub struct RenderSummary {
+    /// The image.
+    pub image: RgbImage,
+    /// The render's estimate of its own error (`None` at one sample per pixel).
+    pub error: Option<ErrorEstimate>,
+    /// Where it goes.
+    pub output: PathBuf,
+    /// Rays traced.
+    pub stats: RayStats,
+    /// Samples per pixel used.
+    pub spp: u32,
+    /// Seconds to parse, load and build the scene.
+    pub startup_seconds: f64,
+    /// Seconds spent rendering tiles.
+    pub render_seconds: f64,
+    /// What the scene uses and so what the render skipped.
+    pub features: Features,
+    /// The scene's name.
+    pub scene_name: String,
+    /// What was ignored in the scene.
+    pub warnings: Vec<Warning>,
+}
+
+/// Why a render failed.
+#[derive(Debug, thiserror::Error)]
+pub enum SubmitError {
+    /// The scene file is malformed.
+    #[error(transparent)]
+    Scene(#[from] SceneError),
+    /// The scene could not be built.
+    #[error("{0}")]
+    Build(#[from] BuildError),
+    /// The job failed (tiles kept failing).
+    #[error("the render failed: {0}")]
+    Job(String),
+    /// The image could not be written.
+    #[error(transparent)]
+    Image(#[from] ImageError),
+    /// The thread pool could not start.
+    #[error("cannot start render threads: {0}")]
+    Threads(#[from] rayon::ThreadPoolBuildError),
+}
+
+/// The one worker of an embedded render.
+const LOCAL_WORKER: WorkerId = WorkerId(1);
+
+/// A tile rendered (or failed) by the in-process worker.
+struct LocalResult {
+    job: JobId,
+    tile: TileId,
+    outcome: Result<(FilmTile, RayStats), String>,
+}
+
+/// The scheduler's way out to the in-process worker: each assignment
+/// becomes a task on the render pool, taken in the order assigned.
+struct LocalOutbox {
+    renderer: Arc<Renderer>,
+    pool: Arc<rayon::ThreadPool>,
+    results: mpsc::Sender<LocalResult>,
+    /// Jobs whose queued tiles are to be dropped unrendered.
+    cancelled: Arc<Mutex<HashSet<JobId>>>,
+    /// Tiles handed to the pool whose result has not been taken yet.
+    outstanding: usize,
+    updates: Vec<JobUpdate>,
+}
+
+impl Outbox for LocalOutbox {
+    fn assign(&mut self, _worker: WorkerId, a: Assignment) {
+        self.outstanding += 1;
+        let (renderer, results, cancelled) =
+            (self.renderer.clone(), self.results.clone(), self.cancelled.clone());
+        self.pool.spawn_fifo(move || {
+            let dropped = cancelled.lock().unwrap_or_else(PoisonError::into_inner).contains(&a.job);
+            let outcome = if dropped {
+                Err("the job was cancelled".to_string())
+            } else {
+                catch_unwind(AssertUnwindSafe(|| renderer.render_tile(a.tile))).map_err(|p| {
+                    let msg = p
+                        .downcast_ref::<&str>()
+                        .map(|s| s.to_string())
+                        .or_else(|| p.downcast_ref::<String>().cloned())
+                        .unwrap_or_else(|| "unknown panic".to_string());
+                    format!("render thread panicked: {msg}")
+                })
+            };
+            // A closed channel means the render was abandoned.
+            let _ = results.send(LocalResult { job: a.job, tile: a.tile, outcome });
+        });
+    }
+
+    fn cancel(&mut self, _worker: WorkerId, job: JobId) {
+        self.cancelled.lock().unwrap_or_else(PoisonError::into_inner).insert(job);
+    }
+
+    fn disconnect(&mut self, _worker: WorkerId) {}
+
+    fn notify(&mut self, _job: JobId, update: JobUpdate) {
+        self.updates.push(update);
+    }
+}
+
+/// Runs one job of `renderer` through the scheduler on `threads` render
+/// threads (0 = one per core), calling `progress` as tiles merge.
+pub fn run_job(
+    renderer: Arc<Renderer>,
+    name: &str,
+    threads: usize,
+    mut progress: impl FnMut(&Progress),
+) -> Result<Arc<FinishedJob>, SubmitError> {
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .thread_name(|i| format!("farm-render-{i}"))
+        .build()?;
+    let threads = pool.current_num_threads();
+    let spec = JobSpec {
+        name: name.to_string(),
+        priority: 0,
+        scene_hash: Vec::new(),
+        spp_override: 0,
+        spp: renderer.samples_per_pixel(),
+        geometry: renderer.film.clone(),
+    };
+    let (results, inbox) = mpsc::channel();
+    let mut out = LocalOutbox {
+        renderer,
+        pool: Arc::new(pool),
+        results,
+        cancelled: Arc::default(),
+        outstanding: 0,
+        updates: Vec::new(),
+    };
+    let mut sched = Scheduler::new(SchedulerConfig::default());
+    let now = Instant::now();
+    let slots = default_in_flight(threads);
+    sched.worker_joined(LOCAL_WORKER, "this process".into(), threads as u32, slots, now, &mut out);
+    let job = sched.submit(spec, &mut out);
+    let mut last_failure = String::new();
+    loop {
+        for update in out.updates.drain(..) {
+            match update {
+                JobUpdate::Progress { done, total, stats, .. } => {
+                    progress(&Progress { tiles_done: done, tiles_total: total, stats })
+                }
+                JobUpdate::Finished(f) => return Ok(f),
+                JobUpdate::Failed(m) => return Err(SubmitError::Job(m)),
+            }
+        }
+        if out.outstanding == 0 {
+            // Nothing is rendering and the scheduler hands this worker no
+            // more: every remaining tile failed here too often. No other
+            // worker will come, so the job cannot finish.
+            sched.abandon(
+                job,
+                format!("no worker may render its remaining tiles ({last_failure})"),
+                &mut out,
+            );
+            continue;
+        }
+        let Ok(r) = inbox.recv() else {
+            return Err(SubmitError::Job("the render threads stopped".into()));
+        };
+        out.outstanding -= 1;
+        sched.heard_from(LOCAL_WORKER, Instant::now());
+        match r.outcome {
+            Ok((film_tile, stats)) => {
+                sched.tile_done(LOCAL_WORKER, r.job, r.tile, film_tile, stats, &mut out)
+            }
+            Err(message) => {
+                last_failure = format!("tile {}: {message}", r.tile.0);
+                sched.tile_failed(LOCAL_WORKER, r.job, r.tile, message, true, &mut out)
+            }
+        }
+    }
+}
+
+/// Parses, builds and renders `scene` in this process, calling `progress`
+/// as tiles merge. Nothing is written.
+pub fn render(
+    scene: &Path,
+    opts: &SubmitOptions,
+    progress: impl FnMut(&Progress),
+) -> Result<RenderSummary, SubmitError> {
+    let start = Instant::now();
+    let (desc, mut warnings) = farm_scene::parse_file(scene)?;
+    let (renderer, build_warnings) =
+        Renderer::new(&desc, &RenderOptions { spp: opts.spp, all_paths: opts.all_paths })?;
+    warnings.extend(build_warnings);
+    let startup_seconds = start.elapsed().as_secs_f64();
+    let output = opts.output.clone().unwrap_or_else(|| PathBuf::from(&renderer.film.filename));
+    let features = renderer.features.clone();
+    let t = Instant::now();
+    let finished = run_job(Arc::new(renderer), &desc.name, opts.threads, progress)?;
+    let render_seconds = t.elapsed().as_secs_f64();
+    let finished = Arc::try_unwrap(finished).unwrap_or_else(|f| (*f).clone());
+    Ok(RenderSummary {
+        image: finished.image,
+        error: finished.error,
+        output,
+        stats: finished.stats,
+        spp: finished.spp,
+        startup_seconds,
+        render_seconds,
+        features,
+        scene_name: desc.name,
+        warnings,
+    })
+}
+
+/// Writes a finished render to its output path.
+pub fn write(summary: &RenderSummary) -> Result<(), SubmitError> {
+    let meta = ImageMetadata {
+        scene: summary.scene_name.clone(),
+        spp: summary.spp,
+        render_seconds: summary.render_seconds as f32,
+        rel_mse_estimate: summary.error.as_ref().map(|e| e.rel_mse as f32),
+    };
+    image::write_image(&summary.output, &summary.image, &meta)?;
+    Ok(())
+}
+
+/// Writes the per-pixel error estimate as a grey image (the same value in
+/// R, G and B) to `path`.
+pub fn write_error_map(
+    path: &Path,
+    summary: &RenderSummary,
+    error: &ErrorEstimate,
+) -> Result<(), SubmitError> {
+    let image = RgbImage {
+        width: error.width,
+        height: error.height,
+        pixels: error.per_pixel.iter().map(|&v| [v; 3]).collect(),
+    };
+    let meta = ImageMetadata {
+        scene: format!("{} (estimated relMSE per pixel)", summary.scene_name),
+        spp: summary.spp,
+        render_seconds: summary.render_seconds as f32,
+        rel_mse_estimate: Some(error.rel_mse as f32),
+    };
+    image::write_image(path, &image, &meta)?;
+    Ok(())
+}

@@ -1,0 +1,274 @@
+//! Rendering one 16×16 tile: the loop of pbrt-v3's
+//! `SamplerIntegrator::Render` for a single tile, with the tile's sampler
+//! seeded from the tile index so the result does not depend on which thread
+//! or process renders it.
+
+use crate::cameras::{self, Camera};
+use crate::error::BuildError;
+use crate::features::Features;
+use crate::filters::{self, Filter};
+use crate::integrator::{RayStats, Whitted};
+use crate::sampler::{self, CameraDims, Sampler};
+use crate::scene::Scene;
+use farm_common::film::{FilmGeometry, FilmTile};
+use farm_common::geometry::{
+    AnimatedTransform, Bounds2i, DMat4, DVec3, Point2i, RayDifferential, Transform, Vec2,
+};
+use farm_common::ids::TileId;
+use farm_common::scene::{Entity, Params, SceneDescription, Warning};
+use farm_common::Spectrum;
+
+/// Entries per axis of the precomputed filter table (pbrt-v3's 16).
+const FILTER_TABLE_SIZE: usize = 16;
+
+/// Choices that override the scene file.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct RenderOptions {
+    /// Samples per pixel instead of the sampler's `pixelsamples`.
+    pub spp: Option<u32>,
+    /// Compute ray differentials and every camera-sample dimension even when
+    /// the scene does not use them (the baseline of the benchmark that
+    /// measures the saving).
+    pub all_paths: bool,
+}
+
+/// The film layout, the filter and the sampler of a scene. The layout is
+/// `farm_common::film::layout`'s, which the coordinator tiles a job by, so
+/// a tile id means the same pixels and samples on both sides.
+pub fn film_and_sampler(
+    desc: &SceneDescription,
+    opts: &RenderOptions,
+) -> (FilmGeometry, Filter, Sampler, Vec<Warning>) {
+    let (film, mut warnings) = FilmGeometry::from_description(desc);
+    let filter_entity =
+        if desc.filter.name.is_empty() { Entity::named("box") } else { desc.filter.clone() };
+    let filter = filters::create(&filter_entity, &mut warnings);
+    debug_assert_eq!(filter.radius(), film.filter_radius);
+    let sampler_entity =
+        if desc.sampler.name.is_empty() { Entity::named("halton") } else { desc.sampler.clone() };
+    let sampler = sampler::create(&sampler_entity, film.sample_bounds, opts.spp, &mut warnings);
+    (film, filter, sampler, warnings)
+}
+
+/// Everything needed to render any tile of one scene.
+#[derive(Debug)]
+pub struct Renderer {
+    /// The scene.
+    pub scene: Scene,
+    /// The camera.
+    pub camera: Camera,
+    /// The sampler every tile's sampler is cloned from.
+    pub sampler: Sampler,
+    /// Film layout.
+    pub film: FilmGeometry,
+    /// The integrator.
+    pub integrator: Whitted,
+    /// Pixels the integrator renders (`pixelbounds`, default all samples).
+    pub pixel_bounds: Bounds2i,
+    /// What the scene uses.
+    pub features: Features,
+    /// Whether camera rays carry differentials.
+    differentials: bool,
+    /// The camera-sample dimensions the camera reads.
+    camera_dims: CameraDims,
+    filter_table: [f32; FILTER_TABLE_SIZE * FILTER_TABLE_SIZE],
+    inv_filter_radius: Vec2,
+}
+
+impl Renderer {
+    /// Builds the scene, camera, sampler and filter of a description. The
+    /// warnings say what was ignored (unknown types, unused parameters).
+    pub fn new(
+        desc: &SceneDescription,
+        opts: &RenderOptions,
+    ) -> Result<(Renderer, Vec<Warning>), BuildError> {
+        let (film, filter, sampler, mut warnings) = film_and_sampler(desc, opts);
+        if film.cropped_pixel_bounds.is_empty() {
+            return Err(BuildError::EmptyFilm);
+        }
+
+        // Render space: world translated so the camera (at shutter open) is at the origin.
+        let wfc = desc.camera.world_from_camera;
+        if wfc.start.determinant() == 0.0 {
+            return Err(BuildError::SingularCamera);
+        }
+        let cam_pos = wfc.start.transform_point3(DVec3::ZERO);
+        let render_from_world = DMat4::from_translation(-cam_pos);
+        let start = Transform::from_dmat4(render_from_world * wfc.start);
+        let end = Transform::from_dmat4(render_from_world * wfc.end);
+        let render_from_camera = AnimatedTransform::new(start, wfc.start_time, end, wfc.end_time);
+        let cam_entity = if desc.camera.entity.name.is_empty() {
+            Entity::named("perspective")
+        } else {
+            desc.camera.entity.clone()
+        };
+        let camera = cameras::create(&cam_entity, render_from_camera, &film, &mut warnings);
+
+        // The integrator: Whitted whatever the file asks for.
+        let ip = Params::new(&desc.integrator.params);
+        let iname =
+            if desc.integrator.name.is_empty() { "path" } else { desc.integrator.name.as_str() };
+        if iname != "whitted" {
+            warnings.push(Warning::at(
+                &desc.integrator.loc,
+                format!("Integrator \"{iname}\" is not supported; rendering with \"whitted\""),
+            ));
+        }
+        let max_depth = ip.int("maxdepth", 5).max(0) as u32;
+        let mut pixel_bounds = film.sample_bounds;
+        if let Some(pb) = ip.ints("pixelbounds") {
+            if pb.len() == 4 {
+                pixel_bounds = pixel_bounds.intersect(&Bounds2i::new(
+                    Point2i::new(pb[0], pb[2]),
+                    Point2i::new(pb[1], pb[3]),
+                ));
+            }
+        }
+        if iname == "whitted" {
+            warnings.extend(ip.unused_warnings());
+        }
+        if !desc.accelerator.name.is_empty() && desc.accelerator.name != "bvh" {
+            warnings.push(Warning::at(
+                &desc.accelerator.loc,
+                format!(
+                    "Accelerator \"{}\" is not supported; using \"bvh\"",
+                    desc.accelerator.name
+                ),
+            ));
+        }
+
+        let scene = Scene::build(desc, render_from_world, &mut warnings)?;
+        let features = Features::of(desc);
+        let differentials = features.needs_differentials() || opts.all_paths;
+        // Shutter time matters only if something moves, the lens point only
+        // with a lens; the sampler passes over the others.
+        let camera_dims = CameraDims {
+            time: features.moving > 0 || features.moving_camera || opts.all_paths,
+            lens: camera.projective().lens_radius > 0.0 || opts.all_paths,
+        };
+
+        // Filter values at the centres of a 16×16 grid over one quadrant.
+        let r = filter.radius();
+        let mut filter_table = [0.0f32; FILTER_TABLE_SIZE * FILTER_TABLE_SIZE];
+        for y in 0..FILTER_TABLE_SIZE {
+            for x in 0..FILTER_TABLE_SIZE {
+                let p = Vec2::new(
+                    (x as f32 + 0.5) * r.x / FILTER_TABLE_SIZE as f32,
+                    (y as f32 + 0.5) * r.y / FILTER_TABLE_SIZE as f32,
+                );
+                filter_table[y * FILTER_TABLE_SIZE + x] = filter.evaluate(p);
+            }
+        }
+        let renderer = Renderer {
+            scene,
+            camera,
+            sampler,
+            film,
+            integrator: Whitted { max_depth },
+            pixel_bounds,
+            features,
+            differentials,
+            camera_dims,
+            filter_table,
+            inv_filter_radius: Vec2::ONE / r,
+        };
+        Ok((renderer, warnings))
+    }
+
+    /// Samples per pixel actually used.
+    pub fn samples_per_pixel(&self) -> u32 {
+        self.sampler.samples_per_pixel()
+    }
+
+    /// Renders one tile: its film tile of weighted sums and its ray counts.
+    pub fn render_tile(&self, id: TileId) -> (FilmTile, RayStats) {
+        let mut stats = RayStats::default();
+        let mut sampler = self.sampler.clone_with_seed(id.0 as u64);
+        let bounds = self.film.tile_sample_bounds(id);
+        let mut tile = FilmTile::new(self.film.tile_pixel_bounds(id));
+        let diff_scale = 1.0 / (sampler.samples_per_pixel() as f32).sqrt();
+        let halves = sampler.halves();
+        for pixel in bounds.iter() {
+            if !self.pixel_bounds.contains(pixel) {
+                continue;
+            }
+            sampler.start_pixel(pixel);
+            let mut index = 0u32;
+            loop {
+                let cs = sampler.camera_sample_for(pixel, self.camera_dims);
+                let offset = cs.p_film - Vec2::new(pixel.x as f32, pixel.y as f32);
+                let second_half = halves.is_second(index, offset);
+                let (weight, ray) = if self.differentials {
+                    let (weight, mut ray) = self.camera.generate_ray_differential(&cs);
+                    ray.scale_differentials(diff_scale);
+                    (weight, ray)
+                } else {
+                    let (weight, ray) = self.camera.generate_ray(&cs);
+                    (weight, RayDifferential::new(ray))
+                };
+                stats.camera_rays += 1;
+                let mut l = Spectrum::ZERO;
+                if weight > 0.0 {
+                    l = self.integrator.li(&ray, &self.scene, &mut sampler, 0, &mut stats);
+                }
+                // Guard the film against bad radiance, as pbrt-v3 does.
+                if l.has_nan() {
+                    stats.nan_samples += 1;
+                    l = Spectrum::ZERO;
+                } else if l.y() < -1e-5 {
+                    stats.negative_samples += 1;
+                    l = Spectrum::ZERO;
+                } else if l.y().is_infinite() {
+                    stats.inf_samples += 1;
+                    l = Spectrum::ZERO;
+                }
+                self.add_sample(&mut tile, cs.p_film, l, weight, second_half);
+                index += 1;
+                if !sampler.start_next_sample() {
+                    break;
+                }
+            }
+        }
+        (tile, stats)
+    }
+
+    /// Splats one sample onto the pixels its filter reaches (pbrt-v3
+    /// `FilmTile::AddSample`); `second_half` says whether it belongs to the
+    /// second half of its pixel's samples.
+    #[inline]
+    fn add_sample(
+        &self,
+        tile: &mut FilmTile,
+        p_film: Vec2,
+        mut l: Spectrum,
+        sample_weight: f32,
+        second_half: bool,
+    ) {
+        let y = l.y();
+        if y > self.film.max_sample_luminance {
+            l *= self.film.max_sample_luminance / y;
+        }
+        let r = self.film.filter_radius;
+        let pd = p_film - Vec2::splat(0.5);
+        let b = tile.pixel_bounds;
+        let x0 = ((pd.x - r.x).ceil() as i32).max(b.min.x);
+        let y0 = ((pd.y - r.y).ceil() as i32).max(b.min.y);
+        let x1 = ((pd.x + r.x).floor() as i32 + 1).min(b.max.x);
+        let y1 = ((pd.y + r.y).floor() as i32 + 1).min(b.max.y);
+        let lw = l * sample_weight;
+        let last = FILTER_TABLE_SIZE - 1;
+        for py in y0..y1 {
+            let fy = ((py as f32 - pd.y) * self.inv_filter_radius.y * FILTER_TABLE_SIZE as f32)
+                .abs()
+                .floor() as usize;
+            let fy = fy.min(last);
+            for px in x0..x1 {
+                let fx = ((px as f32 - pd.x) * self.inv_filter_radius.x * FILTER_TABLE_SIZE as f32)
+                    .abs()
+                    .floor() as usize;
+                let w = self.filter_table[fy * FILTER_TABLE_SIZE + fx.min(last)];
+                tile.add(Point2i::new(px, py), lw, w, second_half);
+            }
+        }
+    }
+}

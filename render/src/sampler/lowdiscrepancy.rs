@@ -1,0 +1,403 @@
+//! Low-discrepancy building blocks (pbrt-v3 `core/lowdiscrepancy.{h,cpp}`):
+//! radical inverses in the first 1024 prime bases, their digit-permuted
+//! variants, generator-matrix sampling with Gray codes, and the scrambled
+//! (0,2)-sequence helpers used by the pixel samplers. Arithmetic follows
+//! pbrt-v3 operation by operation (in `f32`), so the values are the same.
+
+use farm_common::geometry::Vec2;
+use farm_common::rng::{Rng, ONE_MINUS_EPSILON};
+
+/// Number of primes with digit permutations (pbrt-v3 `PrimeTableSize`).
+pub const PRIME_TABLE_SIZE: usize = 1000;
+
+/// Number of bases [`radical_inverse`] supports (pbrt-v3's switch goes to 1023).
+pub const RADICAL_INVERSE_BASES: usize = 1024;
+
+/// The first 1024 primes (pbrt-v3 `Primes`, extended as its `RadicalInverse`).
+pub static PRIMES: [u32; RADICAL_INVERSE_BASES] = first_primes();
+
+/// `PRIME_SUMS[i]` is the sum of the primes before `PRIMES[i]` (pbrt-v3 `PrimeSums`).
+pub static PRIME_SUMS: [u32; PRIME_TABLE_SIZE] = prime_sums();
+
+const fn first_primes() -> [u32; RADICAL_INVERSE_BASES] {
+    let mut out = [0u32; RADICAL_INVERSE_BASES];
+    let (mut n, mut count) = (2u32, 0usize);
+    while count < RADICAL_INVERSE_BASES {
+        let mut d = 2u32;
+        let mut prime = true;
+        while d * d <= n {
+            if n % d == 0 {
+                prime = false;
+                break;
+            }
+            d += 1;
+        }
+        if prime {
+            out[count] = n;
+            count += 1;
+        }
+        n += 1;
+    }
+    out
+}
+
+const fn prime_sums() -> [u32; PRIME_TABLE_SIZE] {
+    let primes = first_primes();
+    let mut out = [0u32; PRIME_TABLE_SIZE];
+    let mut i = 1;
+    while i < PRIME_TABLE_SIZE {
+        out[i] = out[i - 1] + primes[i - 1];
+        i += 1;
+    }
+    out
+}
+
+/// The radical inverse of `a` in base `PRIMES[base_index]` (pbrt-v3
+/// `RadicalInverse`). Base 2 is computed by bit reversal in double
+/// precision, exactly as pbrt-v3 does (and, like it, is not clamped).
+pub fn radical_inverse(base_index: usize, a: u64) -> f32 {
+    if base_index == 0 {
+        return (a.reverse_bits() as f64 * f64::from_bits(0x3bf0_0000_0000_0000)) as f32;
+    }
+    let base = PRIMES[base_index.min(RADICAL_INVERSE_BASES - 1)] as u64;
+    let inv_base = 1.0f32 / base as f32;
+    let (mut a, mut reversed, mut inv_base_n) = (a, 0u64, 1.0f32);
+    while a != 0 {
+        let next = a / base;
+        let digit = a - next * base;
+        reversed = reversed.wrapping_mul(base).wrapping_add(digit);
+        inv_base_n *= inv_base;
+        a = next;
+    }
+    (reversed as f32 * inv_base_n).min(ONE_MINUS_EPSILON)
+}
+
+/// The radical inverse of `a` with each digit mapped through `perm`
+/// (pbrt-v3 `ScrambledRadicalInverse`); `perm` has `PRIMES[base_index]` entries.
+pub fn scrambled_radical_inverse(base_index: usize, a: u64, perm: &[u16]) -> f32 {
+    let base = PRIMES[base_index.min(RADICAL_INVERSE_BASES - 1)] as u64;
+    let inv_base = 1.0f32 / base as f32;
+    let (mut a, mut reversed, mut inv_base_n) = (a, 0u64, 1.0f32);
+    while a != 0 {
+        let next = a / base;
+        let digit = a - next * base;
+        reversed = reversed.wrapping_mul(base).wrapping_add(perm[digit as usize] as u64);
+        inv_base_n *= inv_base;
+        a = next;
+    }
+    let tail = inv_base * perm[0] as f32 / (1.0 - inv_base);
+    (inv_base_n * (reversed as f32 + tail)).min(ONE_MINUS_EPSILON)
+}
+
+/// Dimensions below this (bases 2 … 61) get [`DigitPairs`] tables.
+pub const PAIR_DIMS: usize = 18;
+
+/// For each base `b` of the dimensions 2 … [`PAIR_DIMS`] − 1, the permuted
+/// values of every two-digit group: `pair[d] = perm[d % b]·b + perm[d / b]`
+/// for `d < b²`. The radical inverse then divides by `b²` once per two
+/// digits instead of by `b` once per digit; the digits, their order and
+/// the floating-point operations are unchanged, so the values are the same
+/// bits (Halton spent a sixth of a render in this loop).
+#[derive(Debug)]
+pub struct DigitPairs {
+    offsets: [usize; PAIR_DIMS],
+    table: Vec<u32>,
+}
+
+impl DigitPairs {
+    /// The tables for the permutations `perms` (laid out as
+    /// [`compute_radical_inverse_permutations`] returns them).
+    pub fn new(perms: &[u16]) -> Self {
+        let mut offsets = [0; PAIR_DIMS];
+        let mut table = Vec::new();
+        for (dim, offset) in offsets.iter_mut().enumerate().skip(2) {
+            let b = PRIMES[dim] as usize;
+            let perm = &perms[PRIME_SUMS[dim] as usize..][..b];
+            *offset = table.len();
+            table.extend((0..b * b).map(|d| perm[d % b] as u32 * b as u32 + perm[d / b] as u32));
+        }
+        DigitPairs { offsets, table }
+    }
+
+    /// [`scrambled_radical_inverse`] for a dimension `2 <= dim < PAIR_DIMS`.
+    #[inline]
+    pub fn scrambled_radical_inverse(&self, dim: usize, a: u64, perm: &[u16]) -> f32 {
+        let base = PRIMES[dim] as u64;
+        let base2 = base * base;
+        let pairs = &self.table[self.offsets[dim]..];
+        let inv_base = 1.0f32 / base as f32;
+        let (mut a, mut reversed, mut inv_base_n) = (a, 0u64, 1.0f32);
+        while a >= base {
+            let next = a / base2;
+            let d = a - next * base2;
+            reversed = reversed.wrapping_mul(base2).wrapping_add(pairs[d as usize] as u64);
+            inv_base_n *= inv_base;
+            inv_base_n *= inv_base;
+            a = next;
+        }
+        if a != 0 {
+            reversed = reversed.wrapping_mul(base).wrapping_add(perm[a as usize] as u64);
+            inv_base_n *= inv_base;
+        }
+        let tail = inv_base * perm[0] as f32 / (1.0 - inv_base);
+        (inv_base_n * (reversed as f32 + tail)).min(ONE_MINUS_EPSILON)
+    }
+}
+
+/// Random digit permutations for the first [`PRIME_TABLE_SIZE`] prime
+/// bases, concatenated; base `i`'s starts at `PRIME_SUMS[i]` (pbrt-v3
+/// `ComputeRadicalInversePermutations`).
+pub fn compute_radical_inverse_permutations(rng: &mut Rng) -> Vec<u16> {
+    radical_inverse_permutations_prefix(rng, PRIME_TABLE_SIZE)
+}
+
+/// The permutations of the first `bases` prime bases only: the same values
+/// as the first `PRIME_SUMS[bases]` entries of
+/// [`compute_radical_inverse_permutations`], since the shuffles draw from
+/// the generator in base order.
+pub fn radical_inverse_permutations_prefix(rng: &mut Rng, bases: usize) -> Vec<u16> {
+    let bases = bases.min(PRIME_TABLE_SIZE);
+    let total: usize = PRIMES[..bases].iter().map(|&p| p as usize).sum();
+    let mut perms = vec![0u16; total];
+    let mut start = 0;
+    for &p in &PRIMES[..bases] {
+        let p = p as usize;
+        let chunk = &mut perms[start..start + p];
+        for (j, v) in chunk.iter_mut().enumerate() {
+            *v = j as u16;
+        }
+        shuffle(chunk, p, 1, rng);
+        start += p;
+    }
+    perms
+}
+
+/// The index whose first `n_digits` base-`base` digits, reversed, are
+/// `inverse` (pbrt-v3 `InverseRadicalInverse`).
+pub fn inverse_radical_inverse(base: u64, mut inverse: u64, n_digits: u32) -> u64 {
+    let mut index = 0u64;
+    for _ in 0..n_digits {
+        let digit = inverse % base;
+        inverse /= base;
+        index = index * base + digit;
+    }
+    index
+}
+
+/// The product of generator matrix `c` (columns) and the bits of `a` over GF(2).
+#[inline]
+pub fn multiply_generator(c: &[u32], mut a: u32) -> u32 {
+    let mut v = 0u32;
+    let mut i = 0;
+    while a != 0 {
+        if a & 1 != 0 {
+            v ^= c[i];
+        }
+        a >>= 1;
+        i += 1;
+    }
+    v
+}
+
+/// `2^-32` as pbrt-v3 writes it.
+const INV_2_32: f32 = f32::from_bits(0x2f80_0000);
+
+/// A sample from generator matrix `c`, XOR-scrambled (pbrt-v3 `SampleGeneratorMatrix`).
+#[inline]
+pub fn sample_generator_matrix(c: &[u32], a: u32, scramble: u32) -> f32 {
+    (multiply_generator(c, a) ^ scramble) as f32 * INV_2_32
+}
+
+/// The binary reflected Gray code of `v`.
+#[inline]
+pub fn gray_code(v: u32) -> u32 {
+    (v >> 1) ^ v
+}
+
+/// `n` points of matrix `c` in Gray-code order (pbrt-v3 `GrayCodeSample`, 1D).
+pub fn gray_code_sample_1d(c: &[u32], n: usize, scramble: u32, p: &mut [f32]) {
+    let mut v = scramble;
+    for (i, out) in p.iter_mut().enumerate().take(n) {
+        *out = v as f32 * INV_2_32;
+        v ^= c[(i as u32 + 1).trailing_zeros() as usize];
+    }
+}
+
+/// `n` points of the matrix pair in Gray-code order (pbrt-v3 `GrayCodeSample`, 2D).
+pub fn gray_code_sample_2d(c0: &[u32], c1: &[u32], n: usize, scramble: [u32; 2], p: &mut [Vec2]) {
+    let mut v = scramble;
+    for (i, out) in p.iter_mut().enumerate().take(n) {
+        *out = Vec2::new(v[0] as f32 * INV_2_32, v[1] as f32 * INV_2_32);
+        let tz = (i as u32 + 1).trailing_zeros() as usize;
+        v[0] ^= c0[tz];
+        v[1] ^= c1[tz];
+    }
+}
+
+/// Shuffles `count` blocks of `n_dims` consecutive values (pbrt-v3 `Shuffle`).
+pub fn shuffle<T>(samp: &mut [T], count: usize, n_dims: usize, rng: &mut Rng) {
+    for i in 0..count {
+        let other = i + rng.uniform_u32_below((count - i) as u32) as usize;
+        for j in 0..n_dims {
+            samp.swap(n_dims * i + j, n_dims * other + j);
+        }
+    }
+}
+
+/// The van der Corput generator matrix (identity, bit-reversed).
+pub const C_VAN_DER_CORPUT: [u32; 32] = {
+    let mut c = [0u32; 32];
+    let mut i = 0;
+    while i < 32 {
+        c[i] = 1 << (31 - i);
+        i += 1;
+    }
+    c
+};
+
+/// The second Sobol' dimension's generator matrix.
+pub const C_SOBOL_1: [u32; 32] = {
+    let mut c = [0u32; 32];
+    c[0] = 1 << 31;
+    let mut i = 1;
+    while i < 32 {
+        c[i] = c[i - 1] ^ (c[i - 1] >> 1);
+        i += 1;
+    }
+    c
+};
+
+/// Scrambled van der Corput samples for `n_pixel_samples` pixel samples of
+/// `n_per_sample` values each, shuffled within and across pixel samples
+/// (pbrt-v3 `VanDerCorput`).
+pub fn van_der_corput(
+    n_per_sample: usize,
+    n_pixel_samples: usize,
+    samples: &mut [f32],
+    rng: &mut Rng,
+) {
+    let scramble = rng.uniform_u32();
+    gray_code_sample_1d(&C_VAN_DER_CORPUT, n_per_sample * n_pixel_samples, scramble, samples);
+    for i in 0..n_pixel_samples {
+        shuffle(&mut samples[i * n_per_sample..], n_per_sample, 1, rng);
+    }
+    shuffle(samples, n_pixel_samples, n_per_sample, rng);
+}
+
+/// Scrambled (0,2)-sequence samples, shuffled like [`van_der_corput`]
+/// (pbrt-v3 `Sobol2D`).
+pub fn sobol_2d(n_per_sample: usize, n_pixel_samples: usize, samples: &mut [Vec2], rng: &mut Rng) {
+    let scramble = [rng.uniform_u32(), rng.uniform_u32()];
+    let n = n_per_sample * n_pixel_samples;
+    gray_code_sample_2d(&C_VAN_DER_CORPUT, &C_SOBOL_1, n, scramble, samples);
+    for i in 0..n_pixel_samples {
+        shuffle(&mut samples[i * n_per_sample..], n_per_sample, 1, rng);
+    }
+    shuffle(samples, n_pixel_samples, n_per_sample, rng);
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn two_digit_steps_give_the_same_bits() {
+        let perms = compute_radical_inverse_permutations(&mut Rng::default());
+        let pairs = DigitPairs::new(&perms);
+        let mut rng = Rng::new(11);
+        for dim in 2..PAIR_DIMS {
+            let perm = &perms[PRIME_SUMS[dim] as usize..];
+            let b = PRIMES[dim] as u64;
+            let edges = [0, 1, b - 1, b, b + 1, b * b - 1, b * b, b * b * b, u32::MAX as u64];
+            let random = (0..2000).map(|_| rng.uniform_u32() as u64 >> (rng.uniform_u32() % 32));
+            for a in edges.into_iter().chain(random).chain([1 << 40, u64::MAX >> 1]) {
+                let want = scrambled_radical_inverse(dim, a, perm);
+                let got = pairs.scrambled_radical_inverse(dim, a, perm);
+                assert_eq!(got.to_bits(), want.to_bits(), "dim {dim}, a {a}");
+            }
+        }
+    }
+
+    #[test]
+    fn prime_tables_match_pbrt() {
+        assert_eq!(&PRIMES[..6], &[2, 3, 5, 7, 11, 13]);
+        assert_eq!(PRIMES[999], 7919);
+        assert_eq!(PRIMES[1023], 8161);
+        assert_eq!(&PRIME_SUMS[..6], &[0, 2, 5, 10, 17, 28]);
+        assert_eq!(PRIME_SUMS[999], 3_674_994);
+    }
+
+    #[test]
+    fn radical_inverse_matches_definition() {
+        assert_eq!(radical_inverse(0, 1), 0.5);
+        assert_eq!(radical_inverse(0, 6), 0.375);
+        assert_eq!(radical_inverse(1, 1), 1.0f32 / 3.0);
+        // 7 = 21 in base 3 -> 0.12 = 1/3 + 2/9 = 5/9, computed as pbrt-v3 does.
+        let expected = 5.0f32 * (1.0 / 3.0f32 * (1.0 / 3.0f32));
+        assert_eq!(radical_inverse(1, 7), expected);
+        for i in 0..1000u64 {
+            let v = radical_inverse(2, i);
+            let mut reference = 0.0f64;
+            let (mut a, mut f) = (i, 1.0f64);
+            while a != 0 {
+                f /= 5.0;
+                reference += (a % 5) as f64 * f;
+                a /= 5;
+            }
+            assert!((v as f64 - reference).abs() < 1e-6, "{i}: {v} vs {reference}");
+        }
+    }
+
+    #[test]
+    fn identity_permutation_scramble_equals_plain_radical_inverse() {
+        let perm: Vec<u16> = (0..7).collect();
+        for i in 0..500u64 {
+            assert_eq!(scrambled_radical_inverse(3, i, &perm), radical_inverse(3, i));
+        }
+    }
+
+    #[test]
+    fn permutation_prefixes_match_the_full_table() {
+        let full = compute_radical_inverse_permutations(&mut Rng::default());
+        for bases in [1, 2, 18, 64] {
+            let prefix = radical_inverse_permutations_prefix(&mut Rng::default(), bases);
+            let end = PRIMES[..bases].iter().map(|&p| p as usize).sum::<usize>();
+            assert_eq!(prefix, full[..end], "{bases} bases");
+        }
+    }
+
+    #[test]
+    fn permutations_are_permutations() {
+        let perms = compute_radical_inverse_permutations(&mut Rng::default());
+        assert_eq!(perms.len(), 3_674_994 + 7919);
+        for &i in &[0usize, 1, 17, 999] {
+            let p = PRIMES[i] as usize;
+            let s = PRIME_SUMS[i] as usize;
+            let mut seen = vec![false; p];
+            for &d in &perms[s..s + p] {
+                seen[d as usize] = true;
+            }
+            assert!(seen.iter().all(|&x| x));
+        }
+    }
+
+    #[test]
+    fn inverse_radical_inverse_round_trips() {
+        for i in 0..243u64 {
+            let digits = radical_inverse(1, i) * 243.0;
+            let back = inverse_radical_inverse(3, digits.round() as u64, 5);
+            assert_eq!(back, i);
+        }
+    }
+
+    #[test]
+    fn gray_code_samples_cover_strata() {
+        let mut p = [0.0f32; 16];
+        gray_code_sample_1d(&C_VAN_DER_CORPUT, 16, 0, &mut p);
+        let mut strata: Vec<u32> = p.iter().map(|v| (v * 16.0) as u32).collect();
+        strata.sort_unstable();
+        assert_eq!(strata, (0..16).collect::<Vec<_>>());
+        assert_eq!(gray_code(5), 7);
+        assert_eq!(multiply_generator(&C_SOBOL_1, 3), C_SOBOL_1[0] ^ C_SOBOL_1[1]);
+    }
+}

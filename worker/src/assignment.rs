@@ -1,0 +1,87 @@
+//! One tile assignment, from scene lookup to the `TileResult` to send.
+
+use crate::pool::CpuPool;
+use crate::renderer_cache::RendererCache;
+use farm_common::ids::TileId;
+use farm_proto::convert::Hash;
+use farm_proto::v1::coordinator_client::CoordinatorClient;
+use farm_proto::v1::{self, tile_result::Outcome, TileAssignment, TileFailure, TileResult};
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Arc;
+use tonic::transport::Channel;
+
+/// What became of one assignment.
+#[derive(Debug)]
+pub struct TileOutcome {
+    /// The tile's job.
+    pub job_id: u64,
+    /// The job's cancellation flag the tile was started with.
+    pub cancelled: Arc<AtomicBool>,
+    /// The result to send; `None` when the tile was dropped unrendered.
+    pub result: Option<TileResult>,
+    /// Whether the result holds a rendered film tile.
+    pub rendered: bool,
+}
+
+/// Gets the assignment's renderer (building it if needed), then renders the
+/// tile on `pool` unless `cancelled` is set by the time a thread is free.
+/// Build errors and panics become `TileFailure`s.
+pub async fn render_tile(
+    renderers: RendererCache,
+    client: CoordinatorClient<Channel>,
+    pool: CpuPool,
+    a: TileAssignment,
+    cancelled: Arc<AtomicBool>,
+) -> TileOutcome {
+    let (job_id, tile, attempt) = (a.job_id, a.tile, a.attempt);
+    let outcome = |outcome: Option<Outcome>, stats: Option<v1::RayStats>| TileOutcome {
+        job_id,
+        cancelled: cancelled.clone(),
+        rendered: matches!(outcome, Some(Outcome::FilmTile(_))),
+        result: outcome.map(|o| TileResult { job_id, tile, attempt, outcome: Some(o), stats }),
+    };
+    let failure = |message: String, retryable: bool| {
+        tracing::warn!(job_id, tile, attempt, %message, retryable, "tile failed");
+        outcome(Some(Outcome::Failure(TileFailure { message, retryable })), None)
+    };
+
+    let Ok(hash) = Hash::try_from(a.scene_hash.as_slice()) else {
+        return failure(format!("scene hash has {} bytes, not 32", a.scene_hash.len()), false);
+    };
+    let renderer = match renderers.get(&client, hash, a.spp).await {
+        Ok(r) => r,
+        Err(e) => return failure(e.message, e.retryable),
+    };
+    if tile >= renderer.film.tile_count() {
+        let message =
+            format!("tile {tile} is outside the film's {} tiles", renderer.film.tile_count());
+        return failure(message, false);
+    }
+
+    let flag = cancelled.clone();
+    let rendered = pool
+        .run(move || {
+            // Tiles of cancelled jobs (or of a closing session) are skipped.
+            if flag.load(Ordering::Relaxed) {
+                return None;
+            }
+            let started = std::time::Instant::now();
+            let (film_tile, stats) = renderer.render_tile(TileId(tile));
+            Some((v1::FilmTile::from(&film_tile), v1::RayStats::from(&stats), started.elapsed()))
+        })
+        .await;
+    match rendered {
+        Ok(Some((film_tile, stats, elapsed))) => {
+            tracing::debug!(
+                job_id,
+                tile,
+                attempt,
+                ms = elapsed.as_secs_f64() * 1e3,
+                "tile rendered"
+            );
+            outcome(Some(Outcome::FilmTile(film_tile)), Some(stats))
+        }
+        Ok(None) => outcome(None, None),
+        Err(e) => failure(e.to_string(), true),
+    }
+}

@@ -1,0 +1,523 @@
+//! A worker's life: register with the coordinator, open the `Work` stream,
+//! render the tiles it assigns on the render pool and send back each result
+//! as soon as it is done, until shutdown. With `reconnect`, a lost
+//! coordinator is re-registered with, backing off from 0.2 s to 5 s.
+
+use crate::assignment::{render_tile, TileOutcome};
+use crate::config::WorkerConfig;
+use crate::health;
+use crate::pool::CpuPool;
+use crate::renderer_cache::{RendererCache, DEFAULT_RENDERERS};
+use farm_proto::v1::coordinator_client::CoordinatorClient;
+use farm_proto::v1::coordinator_message::Kind as FromCoordinator;
+use farm_proto::v1::worker_message::Kind as ToCoordinator;
+use farm_proto::v1::{
+    Heartbeat, Hello, RegisterWorkerRequest, RegisterWorkerResponse, TileResult, WorkerMessage,
+};
+use farm_proto::{MAX_MESSAGE_SIZE, PROTOCOL_VERSION};
+use std::collections::HashMap;
+use std::future::Future;
+use std::net::SocketAddr;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Arc;
+use std::time::Duration;
+use tokio::sync::{mpsc, oneshot, watch};
+use tokio::task::JoinSet;
+use tokio_stream::wrappers::ReceiverStream;
+use tonic::transport::{Channel, Endpoint};
+
+/// First and largest pause between attempts to reach the coordinator.
+const BACKOFF: (Duration, Duration) = (Duration::from_millis(200), Duration::from_secs(5));
+/// How long a stopping worker waits for the coordinator to end the stream.
+const CLOSE_GRACE: Duration = Duration::from_secs(1);
+
+/// What a worker did before it stopped.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct WorkerSummary {
+    /// Tiles rendered and sent.
+    pub tiles_rendered: u64,
+}
+
+/// Why a worker stopped other than by being asked to.
+#[derive(Debug, thiserror::Error)]
+pub enum WorkerError {
+    /// The coordinator address is not a URI.
+    #[error("invalid coordinator address {address:?}: {message}")]
+    Address {
+        /// The address given.
+        address: String,
+        /// What is wrong with it.
+        message: String,
+    },
+    /// No connection could be made.
+    #[error("cannot connect to the coordinator at {address}: {source}")]
+    Connect {
+        /// The coordinator's address.
+        address: String,
+        /// The transport error.
+        #[source]
+        source: tonic::transport::Error,
+    },
+    /// The coordinator refused this worker (a protocol version mismatch).
+    #[error("the coordinator refused this worker: {message}")]
+    Refused {
+        /// The coordinator's explanation.
+        message: String,
+    },
+    /// Registration failed for another reason.
+    #[error("registering with the coordinator failed: {message}")]
+    Register {
+        /// The gRPC status.
+        message: String,
+    },
+    /// The work stream failed or the coordinator closed it.
+    #[error("the work stream ended: {message}")]
+    Stream {
+        /// What happened.
+        message: String,
+    },
+    /// The render pool could not start.
+    #[error("cannot start the render pool: {0}")]
+    Pool(#[from] rayon::ThreadPoolBuildError),
+    /// The health address could not be bound.
+    #[error("cannot serve health checks on {address}: {source}")]
+    Health {
+        /// The address asked for.
+        address: SocketAddr,
+        /// The bind error.
+        #[source]
+        source: std::io::Error,
+    },
+}
+
+/// Runs a worker until `shutdown` completes (then returns `Ok`), or until
+/// it fails for good: refused, or with `reconnect` off, unreachable or
+/// disconnected.
+pub async fn run(
+    config: WorkerConfig,
+    shutdown: impl Future<Output = ()> + Send,
+) -> Result<WorkerSummary, WorkerError> {
+    let (stop_tx, stop_rx) = watch::channel(false);
+    let work = run_until_stopped(config, stop_rx);
+    tokio::pin!(work);
+    tokio::select! {
+        result = &mut work => result,
+        () = shutdown => {
+            tracing::info!("shutting down");
+            let _ = stop_tx.send(true);
+            work.await
+        }
+    }
+}
+
+/// Resolves once `stop` says so (or its sender is gone).
+async fn stopped(stop: &mut watch::Receiver<bool>) {
+    let _ = stop.wait_for(|s| *s).await;
+}
+
+/// Why a session ended.
+enum SessionEnd {
+    /// The worker was told to stop.
+    Shutdown,
+    /// The stream failed or the coordinator closed it.
+    Lost(String),
+}
+
+impl SessionEnd {
+    /// The coordinator's side of the stream is gone.
+    fn closed() -> Self {
+        SessionEnd::Lost("the coordinator closed the stream".into())
+    }
+}
+
+/// Everything that outlives a session.
+struct Worker {
+    config: WorkerConfig,
+    pool: CpuPool,
+    renderers: RendererCache,
+    max_in_flight: u32,
+    summary: WorkerSummary,
+}
+
+async fn run_until_stopped(
+    config: WorkerConfig,
+    mut stop: watch::Receiver<bool>,
+) -> Result<WorkerSummary, WorkerError> {
+    let pool = CpuPool::new(config.render_threads())?;
+    // Health is served until this function returns, whatever the coordinator does.
+    let (_health_guard, health_stopped) = oneshot::channel::<()>();
+    if let Some(address) = config.health_listen {
+        let listener = tokio::net::TcpListener::bind(address)
+            .await
+            .map_err(|source| WorkerError::Health { address, source })?;
+        let bound = listener.local_addr().unwrap_or(address);
+        tracing::info!(%bound, "serving grpc.health.v1");
+        tokio::spawn(async move {
+            let shutdown = async {
+                let _ = health_stopped.await;
+            };
+            if let Err(e) = health::serve(listener, shutdown).await {
+                tracing::warn!(error = %e, "health server failed");
+            }
+        });
+    }
+    let renderers = RendererCache::new(DEFAULT_RENDERERS, Arc::default(), pool.clone());
+    let max_in_flight = config.in_flight(pool.threads());
+    let mut worker =
+        Worker { config, pool, renderers, max_in_flight, summary: WorkerSummary::default() };
+
+    let mut delay = BACKOFF.0;
+    loop {
+        let registered = tokio::select! {
+            r = worker.register() => r,
+            () = stopped(&mut stop) => return Ok(worker.summary),
+        };
+        match registered {
+            Ok((client, reply)) => {
+                delay = BACKOFF.0;
+                match worker.session(client, reply, &mut stop).await {
+                    SessionEnd::Shutdown => return Ok(worker.summary),
+                    SessionEnd::Lost(message) if worker.config.reconnect => {
+                        tracing::warn!(%message, "lost the coordinator; registering again");
+                    }
+                    SessionEnd::Lost(message) => return Err(WorkerError::Stream { message }),
+                }
+            }
+            Err(e @ (WorkerError::Refused { .. } | WorkerError::Address { .. })) => return Err(e),
+            Err(e) if worker.config.reconnect => {
+                tracing::warn!(error = %e, retry_in_ms = delay.as_millis() as u64, "coordinator unreachable");
+            }
+            Err(e) => return Err(e),
+        }
+        tokio::select! {
+            () = tokio::time::sleep(delay) => {}
+            () = stopped(&mut stop) => return Ok(worker.summary),
+        }
+        delay = (delay * 2).min(BACKOFF.1);
+    }
+}
+
+impl Worker {
+    /// Connects and registers.
+    async fn register(
+        &self,
+    ) -> Result<(CoordinatorClient<Channel>, RegisterWorkerResponse), WorkerError> {
+        let address = self.config.coordinator.clone();
+        let endpoint = Endpoint::from_shared(address.clone())
+            .map_err(|e| WorkerError::Address { address: address.clone(), message: e.to_string() })?
+            .connect_timeout(Duration::from_secs(5));
+        let channel =
+            endpoint.connect().await.map_err(|source| WorkerError::Connect { address, source })?;
+        let mut client = CoordinatorClient::new(channel)
+            .max_decoding_message_size(MAX_MESSAGE_SIZE)
+            .max_encoding_message_size(MAX_MESSAGE_SIZE);
+        let request = RegisterWorkerRequest {
+            protocol_version: PROTOCOL_VERSION,
+            name: self.config.name.clone(),
+            threads: u32::try_from(self.pool.threads()).unwrap_or(u32::MAX),
+        };
+        let reply = client.register_worker(request).await.map_err(|s| {
+            if s.code() == tonic::Code::FailedPrecondition {
+                WorkerError::Refused { message: s.message().to_string() }
+            } else {
+                WorkerError::Register { message: s.to_string() }
+            }
+        })?;
+        let reply = reply.into_inner();
+        tracing::info!(
+            coordinator = %self.config.coordinator,
+            worker_id = reply.worker_id,
+            heartbeat_ms = reply.heartbeat_interval_ms,
+            threads = self.pool.threads(),
+            "registered"
+        );
+        Ok((client, reply))
+    }
+
+    /// Sends the held results, except those of cancelled jobs; false when
+    /// the stream is gone.
+    async fn send_held(
+        &mut self,
+        tx: &mpsc::Sender<WorkerMessage>,
+        held: &mut Vec<(Arc<AtomicBool>, bool, TileResult)>,
+    ) -> bool {
+        for (cancelled, rendered, result) in held.drain(..) {
+            if cancelled.load(Ordering::Relaxed) {
+                continue;
+            }
+            let message = WorkerMessage { kind: Some(ToCoordinator::Result(result)) };
+            if tx.send(message).await.is_err() {
+                return false;
+            }
+            self.summary.tiles_rendered += u64::from(rendered);
+        }
+        true
+    }
+
+    /// One `Work` stream, from Hello until shutdown or a lost coordinator.
+    #[tracing::instrument(skip_all, fields(worker_id = reply.worker_id))]
+    async fn session(
+        &mut self,
+        client: CoordinatorClient<Channel>,
+        reply: RegisterWorkerResponse,
+        stop: &mut watch::Receiver<bool>,
+    ) -> SessionEnd {
+        // The outgoing stream: Hello first, then results and heartbeats.
+        let (tx, rx) = mpsc::channel::<WorkerMessage>(self.max_in_flight as usize + 16);
+        let hello = Hello { worker_id: reply.worker_id, max_in_flight: self.max_in_flight };
+        let _ = tx.send(WorkerMessage { kind: Some(ToCoordinator::Hello(hello)) }).await;
+        let mut stream_client = client.clone();
+        let opened = tokio::select! {
+            r = stream_client.work(ReceiverStream::new(rx)) => r,
+            () = stopped(stop) => return SessionEnd::Shutdown,
+        };
+        let mut inbound = match opened {
+            Ok(response) => response.into_inner(),
+            Err(status) => return SessionEnd::Lost(format!("opening the work stream: {status}")),
+        };
+        tracing::info!(max_in_flight = self.max_in_flight, "work stream open");
+
+        let period = Duration::from_millis(match reply.heartbeat_interval_ms {
+            0 => 1000,
+            ms => u64::from(ms),
+        });
+        let mut heartbeat = tokio::time::interval_at(tokio::time::Instant::now() + period, period);
+        heartbeat.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Delay);
+        // Per job: a flag set on cancellation, and its tiles in flight.
+        let mut jobs: HashMap<u64, (Arc<AtomicBool>, usize)> = HashMap::new();
+        let mut tiles: JoinSet<TileOutcome> = JoinSet::new();
+        // Finished results are held back and sent together once no more than
+        // `low_water` tiles are left in progress: one write then carries
+        // several results (and the coordinator answers with several
+        // assignments), while the tiles still in progress keep every thread
+        // busy over the round trip. Each message costs both sides system
+        // calls and wake-ups, which a tile-at-a-time exchange pays per tile.
+        let low_water = self.pool.threads().max(self.max_in_flight as usize / 2);
+        let mut held: Vec<(Arc<AtomicBool>, bool, TileResult)> = Vec::new();
+
+        let end = loop {
+            tokio::select! {
+                // Cancellations before results, so a cancelled job's tiles are not sent.
+                biased;
+                () = stopped(stop) => break SessionEnd::Shutdown,
+                message = inbound.message() => match message {
+                    Ok(Some(m)) => match m.kind {
+                        Some(FromCoordinator::Assign(a)) => {
+                            let (flag, n) = jobs.entry(a.job_id).or_default();
+                            *n += 1;
+                            let task = render_tile(
+                                self.renderers.clone(),
+                                client.clone(),
+                                self.pool.clone(),
+                                a,
+                                flag.clone(),
+                            );
+                            tiles.spawn(task);
+                        }
+                        Some(FromCoordinator::Cancelled(c)) => {
+                            tracing::debug!(job_id = c.job_id, "job cancelled");
+                            if let Some((flag, _)) = jobs.remove(&c.job_id) {
+                                flag.store(true, Ordering::Relaxed);
+                            }
+                        }
+                        None => {}
+                    },
+                    Ok(None) => break SessionEnd::closed(),
+                    Err(status) => break SessionEnd::Lost(status.to_string()),
+                },
+                Some(joined) = tiles.join_next() => {
+                    let Ok(outcome) = joined else { continue };
+                    if let Some((flag, n)) = jobs.get_mut(&outcome.job_id) {
+                        if Arc::ptr_eq(flag, &outcome.cancelled) {
+                            *n -= 1;
+                            if *n == 0 {
+                                jobs.remove(&outcome.job_id);
+                            }
+                        }
+                    }
+                    if let Some(result) = outcome.result {
+                        held.push((outcome.cancelled, outcome.rendered, result));
+                    }
+                    if tiles.len() <= low_water && !self.send_held(&tx, &mut held).await {
+                        break SessionEnd::closed();
+                    }
+                }
+                _ = heartbeat.tick() => {
+                    if !self.send_held(&tx, &mut held).await {
+                        break SessionEnd::closed();
+                    }
+                    let beat = WorkerMessage { kind: Some(ToCoordinator::Heartbeat(Heartbeat {})) };
+                    if tx.send(beat).await.is_err() {
+                        break SessionEnd::closed();
+                    }
+                }
+            }
+        };
+
+        // Drop queued tiles (the coordinator requeues them) and close our side.
+        for (flag, _) in jobs.values() {
+            flag.store(true, Ordering::Relaxed);
+        }
+        tiles.abort_all();
+        drop(tx);
+        if matches!(end, SessionEnd::Shutdown) {
+            let drain = async { while let Ok(Some(_)) = inbound.message().await {} };
+            let _ = tokio::time::timeout(CLOSE_GRACE, drain).await;
+        }
+        end
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::testing::{scene_blobs, start_fake, tiny_scene, FakeSession};
+    use farm_proto::v1::tile_result::Outcome;
+    use farm_proto::v1::{CoordinatorMessage, JobCancelled, TileAssignment, TileResult};
+
+    fn config(coordinator: String, reconnect: bool) -> WorkerConfig {
+        WorkerConfig { coordinator, threads: 2, name: "t".into(), reconnect, ..Default::default() }
+    }
+
+    fn assign(
+        job_id: u64,
+        tile: u32,
+        scene_hash: &[u8],
+    ) -> Result<CoordinatorMessage, tonic::Status> {
+        let a =
+            TileAssignment { job_id, tile, attempt: 0, scene_hash: scene_hash.to_vec(), spp: 0 };
+        Ok(CoordinatorMessage { kind: Some(FromCoordinator::Assign(a)) })
+    }
+
+    /// The next tile result, skipping heartbeats.
+    async fn next_result(s: &mut FakeSession) -> TileResult {
+        loop {
+            match s.from_worker.recv().await.expect("stream ended").kind {
+                Some(ToCoordinator::Result(r)) => return r,
+                Some(ToCoordinator::Heartbeat(_)) => {}
+                other => panic!("unexpected {other:?}"),
+            }
+        }
+    }
+
+    #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+    async fn a_session_renders_tiles_and_stops_cleanly() {
+        let (hash, mut blobs) = scene_blobs(&tiny_scene(32));
+        let (big, big_blobs) = scene_blobs(&tiny_scene(256));
+        blobs.extend(big_blobs);
+        let (url, mut sessions, fetches) = start_fake(blobs, false).await;
+        let (stop, stopped) = oneshot::channel::<()>();
+        let worker = tokio::spawn(run(config(url, false), async {
+            let _ = stopped.await;
+        }));
+        let mut s = sessions.recv().await.unwrap();
+        let hello = s.from_worker.recv().await.unwrap().kind;
+        assert_eq!(hello, Some(ToCoordinator::Hello(Hello { worker_id: 7, max_in_flight: 10 })));
+
+        // Four tiles of one job: each comes back once, with film and stats.
+        for tile in 0..4 {
+            s.to_worker.send(assign(1, tile, &hash)).await.unwrap();
+        }
+        let mut got = Vec::new();
+        for _ in 0..4 {
+            let r = next_result(&mut s).await;
+            assert!(matches!(r.outcome, Some(Outcome::FilmTile(_))), "{r:?}");
+            assert!(r.stats.unwrap().camera_rays > 0);
+            got.push(r.tile);
+        }
+        got.sort();
+        assert_eq!(got, vec![0, 1, 2, 3]);
+        assert_eq!(fetches.load(Ordering::SeqCst), 2, "manifest and asset, once each");
+
+        // Bad assignments fail without killing the session.
+        s.to_worker.send(assign(2, 0, b"short")).await.unwrap();
+        s.to_worker.send(assign(3, 0, &[0; 32])).await.unwrap();
+        s.to_worker.send(assign(1, 99, &hash)).await.unwrap();
+        let mut failures = Vec::new();
+        for _ in 0..3 {
+            let r = next_result(&mut s).await;
+            let Some(Outcome::Failure(f)) = r.outcome else { panic!("{r:?}") };
+            failures.push((r.job_id, f.retryable));
+        }
+        failures.sort();
+        assert_eq!(failures, vec![(1, false), (2, false), (3, false)]);
+
+        // A cancelled job's tiles are not reported once the cancel arrives;
+        // later jobs still are. (Tiles finished before it may be.)
+        for tile in 0..16 {
+            let mut a = assign(4, tile, &big);
+            if let Ok(CoordinatorMessage { kind: Some(FromCoordinator::Assign(a)) }) = &mut a {
+                a.spp = 64;
+            }
+            s.to_worker.send(a).await.unwrap();
+        }
+        let cancel = CoordinatorMessage {
+            kind: Some(FromCoordinator::Cancelled(JobCancelled { job_id: 4 })),
+        };
+        s.to_worker.send(Ok(cancel)).await.unwrap();
+        s.to_worker.send(assign(5, 0, &hash)).await.unwrap();
+        let mut cancelled_sent = 0;
+        while next_result(&mut s).await.job_id == 4 {
+            cancelled_sent += 1;
+        }
+        assert!(cancelled_sent < 16, "{cancelled_sent} tiles of a cancelled job were sent");
+
+        // Heartbeats flow while idle.
+        let beat = s.from_worker.recv().await.unwrap().kind;
+        assert_eq!(beat, Some(ToCoordinator::Heartbeat(Heartbeat {})));
+
+        // Shutdown closes the worker's side of the stream and returns Ok.
+        stop.send(()).unwrap();
+        let summary = worker.await.unwrap().unwrap();
+        assert_eq!(summary.tiles_rendered, 5 + cancelled_sent);
+        while let Some(m) = s.from_worker.recv().await {
+            assert!(matches!(m.kind, Some(ToCoordinator::Heartbeat(_))), "{m:?}");
+        }
+    }
+
+    #[tokio::test]
+    async fn a_lost_coordinator_ends_or_restarts_the_session() {
+        let (url, mut sessions, _) = start_fake(Vec::new(), false).await;
+        // Without reconnect, the end of the stream is an error.
+        let worker = tokio::spawn(run(config(url.clone(), false), std::future::pending()));
+        drop(sessions.recv().await.unwrap());
+        assert!(matches!(worker.await.unwrap(), Err(WorkerError::Stream { .. })));
+        // With reconnect, the worker registers again.
+        let (stop, stopped) = oneshot::channel::<()>();
+        let worker = tokio::spawn(run(config(url, true), async {
+            let _ = stopped.await;
+        }));
+        drop(sessions.recv().await.unwrap());
+        let mut again = sessions.recv().await.unwrap();
+        assert!(matches!(
+            again.from_worker.recv().await.unwrap().kind,
+            Some(ToCoordinator::Hello(_))
+        ));
+        stop.send(()).unwrap();
+        assert_eq!(worker.await.unwrap().unwrap(), WorkerSummary { tiles_rendered: 0 });
+    }
+
+    #[tokio::test]
+    async fn refusal_and_absence_fail_fast() {
+        let (url, _sessions, _) = start_fake(Vec::new(), true).await;
+        let err = run(config(url, true), std::future::pending()).await.unwrap_err();
+        let WorkerError::Refused { message } = err else { panic!("{err}") };
+        assert!(message.contains("protocol version"));
+        // Nothing listens on port 1.
+        let err = run(config("http://127.0.0.1:1".into(), false), std::future::pending()).await;
+        assert!(matches!(err, Err(WorkerError::Connect { .. })));
+        let err = run(config("not a uri".into(), true), std::future::pending()).await;
+        assert!(matches!(err, Err(WorkerError::Address { .. })));
+    }
+
+    #[tokio::test]
+    async fn shutdown_interrupts_reconnecting() {
+        let (stop, stopped) = oneshot::channel::<()>();
+        let worker = tokio::spawn(run(config("http://127.0.0.1:1".into(), true), async {
+            let _ = stopped.await;
+        }));
+        tokio::time::sleep(Duration::from_millis(300)).await;
+        stop.send(()).unwrap();
+        assert_eq!(worker.await.unwrap().unwrap().tiles_rendered, 0);
+    }
+}
