@@ -3,7 +3,8 @@
 //! seconds, start-up, rays per second and peak RSS next to pbrt-v3's
 //! numbers from the reference README.
 
-use crate::embedded::{self, SubmitError, SubmitOptions};
+use crate::embedded::{self, SubmitOptions};
+use crate::error::Error;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -153,7 +154,7 @@ pub fn peak_rss_mb() -> f64 {
 
 /// Renders `scene` in this process and prints the result line `farm bench`
 /// reads (the hidden `farm bench-one` command).
-pub fn measure_here(scene: &Path, threads: usize) -> Result<Measured, SubmitError> {
+pub fn measure_here(scene: &Path, threads: usize) -> Result<Measured, Error> {
     let t = Instant::now();
     let opts = SubmitOptions { threads, ..Default::default() };
     let r = embedded::render(scene, &opts, |_| {})?;

@@ -3,9 +3,10 @@
 //! next to the render's own estimate of its error, its time and its rays.
 
 use crate::embedded::Progress;
-use farm_common::image::{self as metrics, ImageError};
+use crate::error::Error;
+use farm_common::image as metrics;
 
-use crate::embedded::{self, SubmitError, SubmitOptions};
+use crate::embedded::{self, SubmitOptions};
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
@@ -61,40 +62,15 @@ pub struct Convergence {
     pub rows: Vec<Row>,
 }
 
-/// Why a series failed.
-#[derive(Debug, thiserror::Error)]
-pub enum ConvergeError {
-    /// A render failed.
-    #[error(transparent)]
-    Render(#[from] SubmitError),
-    /// The reference could not be read.
-    #[error(transparent)]
-    Reference(#[from] ImageError),
-    /// The reference's size is not the render's.
-    #[error("the reference {path} is {rw}×{rh} but the render is {w}×{h}")]
-    SizeMismatch {
-        /// The reference.
-        path: String,
-        /// Reference width.
-        rw: usize,
-        /// Reference height.
-        rh: usize,
-        /// Render width.
-        w: usize,
-        /// Render height.
-        h: usize,
-    },
-}
-
 /// Renders `scene` at each sample count and measures every render.
 /// `progress` gets the sample count being rendered and its tile progress.
 pub fn run(
     scene: &Path,
     opts: &ConvergeOptions,
     mut progress: impl FnMut(u32, &Progress),
-) -> Result<Convergence, ConvergeError> {
+) -> Result<Convergence, Error> {
     let reference = match &opts.reference {
-        Some(p) => Some(metrics::read_file(p)?),
+        Some(p) => Some(metrics::read_file(p).map_err(Error::Reference)?),
         None => None,
     };
     let render = |spp: Option<u32>, progress: &mut dyn FnMut(u32, &Progress)| {
@@ -121,7 +97,7 @@ pub fn run(
     };
     let (rw, rh) = (reference.width, reference.height);
     if (rw, rh) != (top.image.width, top.image.height) {
-        return Err(ConvergeError::SizeMismatch {
+        return Err(Error::SizeMismatch {
             path: opts.reference.as_deref().unwrap_or(scene).display().to_string(),
             rw,
             rh,

@@ -5,9 +5,10 @@
 //! the farm's retries, failure messages and ordered merge: there is one job
 //! engine, whichever way a scene is rendered.
 
+use crate::error::Error;
 use farm_common::film::FilmTile;
 use farm_common::ids::{JobId, TileId, WorkerId};
-use farm_common::image::{self, ImageError, ImageMetadata, RgbImage};
+use farm_common::image::{self, ImageMetadata, RgbImage};
 use farm_common::scene::Warning;
 use farm_common::stats::RayStats;
 use farm_coordinator::estimate::ErrorEstimate;
@@ -16,8 +17,7 @@ use farm_coordinator::scheduler::{
 };
 use farm_proto::default_in_flight;
 use farm_render::features::Features;
-use farm_render::{BuildError, RenderOptions, Renderer};
-use farm_scene::SceneError;
+use farm_render::{RenderOptions, Renderer};
 use std::collections::HashSet;
 use std::panic::{catch_unwind, AssertUnwindSafe};
 use std::path::{Path, PathBuf};
@@ -73,26 +73,6 @@ pub struct RenderSummary {
     pub scene_name: String,
     /// What was ignored in the scene.
     pub warnings: Vec<Warning>,
-}
-
-/// Why a render failed.
-#[derive(Debug, thiserror::Error)]
-pub enum SubmitError {
-    /// The scene file is malformed.
-    #[error(transparent)]
-    Scene(#[from] SceneError),
-    /// The scene could not be built.
-    #[error("{0}")]
-    Build(#[from] BuildError),
-    /// The job failed (tiles kept failing).
-    #[error("the render failed: {0}")]
-    Job(String),
-    /// The image could not be written.
-    #[error(transparent)]
-    Image(#[from] ImageError),
-    /// The thread pool could not start.
-    #[error("cannot start render threads: {0}")]
-    Threads(#[from] rayon::ThreadPoolBuildError),
 }
 
 /// The one worker of an embedded render.
@@ -160,7 +140,7 @@ pub fn run_job(
     name: &str,
     threads: usize,
     mut progress: impl FnMut(&Progress),
-) -> Result<Arc<FinishedJob>, SubmitError> {
+) -> Result<Arc<FinishedJob>, Error> {
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(threads)
         .thread_name(|i| format!("farm-render-{i}"))
@@ -196,7 +176,7 @@ pub fn run_job(
                     progress(&Progress { tiles_done: done, tiles_total: total, stats })
                 }
                 JobUpdate::Finished(f) => return Ok(f),
-                JobUpdate::Failed(m) => return Err(SubmitError::Job(m)),
+                JobUpdate::Failed(m) => return Err(Error::JobFailed(m)),
             }
         }
         if out.outstanding == 0 {
@@ -211,7 +191,7 @@ pub fn run_job(
             continue;
         }
         let Ok(r) = inbox.recv() else {
-            return Err(SubmitError::Job("the render threads stopped".into()));
+            return Err(Error::JobFailed("the render threads stopped".into()));
         };
         out.outstanding -= 1;
         sched.heard_from(LOCAL_WORKER, Instant::now());
@@ -233,7 +213,7 @@ pub fn render(
     scene: &Path,
     opts: &SubmitOptions,
     progress: impl FnMut(&Progress),
-) -> Result<RenderSummary, SubmitError> {
+) -> Result<RenderSummary, Error> {
     let start = Instant::now();
     let (desc, mut warnings) = farm_scene::parse_file(scene)?;
     let (renderer, build_warnings) =
@@ -261,7 +241,7 @@ pub fn render(
 }
 
 /// Writes a finished render to its output path.
-pub fn write(summary: &RenderSummary) -> Result<(), SubmitError> {
+pub fn write(summary: &RenderSummary) -> Result<(), Error> {
     let meta = ImageMetadata {
         scene: summary.scene_name.clone(),
         spp: summary.spp,
@@ -278,7 +258,7 @@ pub fn write_error_map(
     path: &Path,
     summary: &RenderSummary,
     error: &ErrorEstimate,
-) -> Result<(), SubmitError> {
+) -> Result<(), Error> {
     let image = RgbImage {
         width: error.width,
         height: error.height,

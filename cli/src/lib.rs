@@ -14,10 +14,14 @@ pub mod commands;
 pub mod converge;
 /// Rendering a scene file in this process with the farm's scheduler.
 pub mod embedded;
+/// The CLI's errors and their exit codes.
+pub mod error;
 /// The terminal progress bar.
 pub mod progress;
 /// The async runtime and shutdown signals.
 pub mod runtime;
+
+pub use error::{Error, Result};
 
 use clap::{Parser, Subcommand};
 use runtime::{block_on, block_on_one_thread};

@@ -6,6 +6,8 @@
 //! scene: the film layout comes from `farm-common`.
 #![warn(missing_docs)]
 
+/// The coordinator's errors and their gRPC status codes.
+pub mod error;
 /// A render's estimate of its own error from its two half-images.
 pub mod estimate;
 /// Ordered merging of film tiles.
@@ -14,3 +16,5 @@ pub mod merge;
 pub mod scheduler;
 /// The coordinator gRPC server.
 pub mod server;
+
+pub use error::{Error, Result};

@@ -11,6 +11,10 @@ pub mod v1 {
 
 /// Conversions between protocol messages and farm types.
 pub mod convert;
+/// What can be wrong with what arrives.
+pub mod error;
+
+pub use error::{Error, Result};
 
 /// The protocol version workers and clients must speak. Bump it on any
 /// incompatible change to the .proto files.

@@ -66,7 +66,9 @@ fn farm_binary() -> PathBuf {
 fn main() {
     let farm = farm_binary();
     if !farm.is_file() {
-        eprintln!("SKIPPED: build the farm binary first: cargo build --release -p farm-cli --bin farm");
+        eprintln!(
+            "SKIPPED: build the farm binary first: cargo build --release -p farm-cli --bin farm"
+        );
         return;
     }
     let sizes: Vec<usize> = std::env::var("FARM_MESH_SIZES")

@@ -246,7 +246,7 @@ async fn a_coordinator_shutting_down_tells_its_clients() {
     // shutdown comes between queueing and watching, the watch call itself
     // is refused; both tell the user why.
     match err {
-        Err(e @ (client::ClientError::JobFailed(_) | client::ClientError::Rpc(_))) => {
+        Err(e @ (farm_cli::Error::JobFailed(_) | farm_cli::Error::Rpc(_))) => {
             assert!(e.to_string().contains("shutting down"), "{e}")
         }
         other => {

@@ -50,7 +50,7 @@ pub async fn render_tile(
     };
     let renderer = match renderers.get(&client, hash, a.spp).await {
         Ok(r) => r,
-        Err(e) => return failure(e.message, e.retryable),
+        Err(e) => return failure(e.to_string(), e.retryable()),
     };
     if tile >= renderer.film.tile_count() {
         let message =

@@ -3,7 +3,8 @@
 //! against its blake3 hash before it is kept, and concurrent requests for
 //! one blob share a single fetch.
 
-use farm_proto::convert::{BlobAssembler, ChunkError, Hash};
+use crate::error::Error;
+use farm_proto::convert::{BlobAssembler, Hash};
 use farm_proto::v1::coordinator_client::CoordinatorClient;
 use farm_proto::v1::FetchBlobRequest;
 use std::collections::HashMap;
@@ -15,68 +16,31 @@ use tonic::transport::Channel;
 /// Bytes of blobs a worker keeps by default.
 pub const DEFAULT_BLOB_CACHE_BYTES: usize = 1 << 30;
 
-/// Why a blob could not be obtained.
-#[derive(Debug, thiserror::Error)]
-pub enum BlobError {
-    /// The coordinator refused or the connection failed.
-    #[error("fetching blob {hash}: {status}")]
-    Status {
-        /// Hex hash of the blob.
-        hash: String,
-        /// The gRPC status.
-        status: tonic::Status,
-    },
-    /// The chunks did not fit together.
-    #[error("blob {hash} arrived malformed: {reason}")]
-    Malformed {
-        /// Hex hash of the blob.
-        hash: String,
-        /// What was wrong.
-        reason: String,
-    },
-    /// The bytes do not hash to the blob's name.
-    #[error("blob {expected} arrived with hash {got}")]
-    HashMismatch {
-        /// The hash asked for.
-        expected: String,
-        /// The hash of the bytes received.
-        got: String,
-    },
-}
-
-impl BlobError {
-    /// Whether another attempt could succeed (everything but a blob the
-    /// coordinator does not have).
-    pub fn retryable(&self) -> bool {
-        !matches!(self, BlobError::Status { status, .. } if status.code() == tonic::Code::NotFound)
-    }
-}
-
 /// Hex form of a hash, for messages.
 pub fn hex(hash: &Hash) -> String {
     blake3::Hash::from(*hash).to_hex().to_string()
 }
 
 /// Checks `data` against `hash`.
-pub fn verify(hash: &Hash, data: &[u8]) -> Result<(), BlobError> {
+pub fn verify(hash: &Hash, data: &[u8]) -> Result<(), Error> {
     let got = blake3::hash(data);
     if got.as_bytes() == hash {
         Ok(())
     } else {
-        Err(BlobError::HashMismatch { expected: hex(hash), got: got.to_hex().to_string() })
+        Err(Error::BlobHashMismatch { expected: hex(hash), got: got.to_hex().to_string() })
     }
 }
 
 /// Somewhere blobs come from: the coordinator, or a map in tests.
 pub trait BlobSource: Clone + Send + Sync + 'static {
     /// The whole blob named by `hash` (not yet verified).
-    fn fetch(&self, hash: Hash) -> impl Future<Output = Result<Vec<u8>, BlobError>> + Send;
+    fn fetch(&self, hash: Hash) -> impl Future<Output = Result<Vec<u8>, Error>> + Send;
 }
 
 impl BlobSource for CoordinatorClient<Channel> {
-    async fn fetch(&self, hash: Hash) -> Result<Vec<u8>, BlobError> {
-        let status = |status| BlobError::Status { hash: hex(&hash), status };
-        let malformed = |reason: String| BlobError::Malformed { hash: hex(&hash), reason };
+    async fn fetch(&self, hash: Hash) -> Result<Vec<u8>, Error> {
+        let status = |status| Error::BlobStatus { hash: hex(&hash), status };
+        let malformed = |reason: String| Error::BlobMalformed { hash: hex(&hash), reason };
         let request = FetchBlobRequest { hash: hash.to_vec() };
         let mut stream = self.clone().fetch_blob(request).await.map_err(status)?.into_inner();
         // Reassemble the chunks, which must arrive in order.
@@ -85,7 +49,7 @@ impl BlobSource for CoordinatorClient<Channel> {
             assembler.push(&chunk).map_err(|e| malformed(e.to_string()))?;
         }
         let (named, data) = match assembler.finish() {
-            Err(ChunkError::Empty) => return Ok(Vec::new()),
+            Err(farm_proto::Error::Empty) => return Ok(Vec::new()),
             r => r.map_err(|e| malformed(e.to_string()))?,
         };
         if named != hash {
@@ -154,7 +118,7 @@ impl BlobCache {
     }
 
     /// Keeps `data` under `hash` after checking that it hashes to it.
-    pub fn insert(&self, hash: Hash, data: Vec<u8>) -> Result<Arc<Vec<u8>>, BlobError> {
+    pub fn insert(&self, hash: Hash, data: Vec<u8>) -> Result<Arc<Vec<u8>>, Error> {
         verify(&hash, &data)?;
         let cell = self.slot(hash);
         let data = match cell.set(Arc::new(data)) {
@@ -162,7 +126,7 @@ impl BlobCache {
             Err(_) => cell.get().cloned(),
         };
         self.evict(&hash);
-        data.ok_or_else(|| BlobError::Malformed { hash: hex(&hash), reason: "lost".into() })
+        data.ok_or_else(|| Error::BlobMalformed { hash: hex(&hash), reason: "lost".into() })
     }
 
     /// The blob, fetched from `source` (once, however many callers ask at
@@ -171,14 +135,14 @@ impl BlobCache {
         &self,
         source: &S,
         hash: Hash,
-    ) -> Result<Arc<Vec<u8>>, BlobError> {
+    ) -> Result<Arc<Vec<u8>>, Error> {
         let cell = self.slot(hash);
         let data = cell
             .get_or_try_init(|| async {
                 let data = source.fetch(hash).await?;
                 verify(&hash, &data)?;
                 tracing::debug!(hash = %hex(&hash), bytes = data.len(), "fetched blob");
-                Ok::<_, BlobError>(Arc::new(data))
+                Ok::<_, Error>(Arc::new(data))
             })
             .await
             .cloned();
@@ -239,13 +203,13 @@ pub(crate) mod tests {
     }
 
     impl BlobSource for MapSource {
-        async fn fetch(&self, hash: Hash) -> Result<Vec<u8>, BlobError> {
+        async fn fetch(&self, hash: Hash) -> Result<Vec<u8>, Error> {
             self.fetches.fetch_add(1, Ordering::SeqCst);
             tokio::time::sleep(std::time::Duration::from_millis(10)).await;
             match self.blobs.get(&hash) {
                 Some(d) if self.corrupt => Ok(d.iter().map(|b| b ^ 1).collect()),
                 Some(d) => Ok(d.clone()),
-                None => Err(BlobError::Status {
+                None => Err(Error::BlobStatus {
                     hash: hex(&hash),
                     status: tonic::Status::not_found("no"),
                 }),
@@ -261,7 +225,7 @@ pub(crate) mod tests {
     fn insert_rejects_data_that_does_not_match_its_hash() {
         let cache = BlobCache::default();
         let err = cache.insert(h(b"abc"), b"abd".to_vec()).unwrap_err();
-        assert!(matches!(err, BlobError::HashMismatch { .. }), "{err}");
+        assert!(matches!(err, Error::BlobHashMismatch { .. }), "{err}");
         assert!(cache.is_empty() && cache.get(&h(b"abc")).is_none());
         let got = cache.insert(h(b"abc"), b"abc".to_vec()).unwrap();
         assert_eq!(got.as_slice(), b"abc");
@@ -276,7 +240,7 @@ pub(crate) mod tests {
         // Corrupt bytes are refused and not kept.
         let bad = MapSource { corrupt: true, ..source.clone() };
         let err = cache.get_or_fetch(&bad, h(&a)).await.unwrap_err();
-        assert!(matches!(err, BlobError::HashMismatch { .. }) && err.retryable());
+        assert!(matches!(err, Error::BlobHashMismatch { .. }) && err.retryable());
         assert!(cache.is_empty());
         // Concurrent requests share one fetch.
         let (x, y) =

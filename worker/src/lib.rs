@@ -11,6 +11,8 @@ pub mod assignment;
 pub mod blob_cache;
 /// Worker settings.
 pub mod config;
+/// The worker's errors.
+pub mod error;
 /// The grpc.health.v1 service for probes.
 pub mod health;
 /// The tokio-to-rayon bridge for CPU-bound work.
@@ -24,4 +26,5 @@ pub mod session;
 pub(crate) mod testing;
 
 pub use config::WorkerConfig;
-pub use session::{run, WorkerError, WorkerSummary};
+pub use error::{Error, Result};
+pub use session::{run, WorkerSummary};

@@ -3,20 +3,10 @@
 //! result through a oneshot, so the tokio runtime never blocks (ballista's
 //! `cpu_bound_executor.rs` idea, with rayon instead of a second runtime).
 
+use crate::error::Error;
 use std::panic::{catch_unwind, AssertUnwindSafe};
 use std::sync::Arc;
 use tokio::sync::oneshot;
-
-/// Why a closure sent to the pool gave no result.
-#[derive(Debug, thiserror::Error, Clone, PartialEq, Eq)]
-pub enum PoolError {
-    /// The closure panicked; the message is the panic's payload.
-    #[error("render thread panicked: {0}")]
-    Panicked(String),
-    /// The pool dropped the closure without running it.
-    #[error("the render pool shut down")]
-    Dropped,
-}
 
 /// A dedicated rayon pool for CPU-bound work. Clones share the pool.
 #[derive(Clone, Debug)]
@@ -42,7 +32,7 @@ impl CpuPool {
     /// Runs `f` on the pool and waits for its value without blocking the
     /// async runtime. A panic in `f` is caught and returned as an error.
     /// Dropping the returned future does not stop `f` once it has started.
-    pub async fn run<F, R>(&self, f: F) -> Result<R, PoolError>
+    pub async fn run<F, R>(&self, f: F) -> Result<R, Error>
     where
         F: FnOnce() -> R + Send + 'static,
         R: Send + 'static,
@@ -55,12 +45,12 @@ impl CpuPool {
                     .map(|s| s.to_string())
                     .or_else(|| p.downcast_ref::<String>().cloned())
                     .unwrap_or_else(|| "unknown panic".to_string());
-                PoolError::Panicked(msg)
+                Error::Panicked(msg)
             });
             // The receiver is gone when the waiting task was cancelled.
             let _ = tx.send(result);
         });
-        rx.await.map_err(|_| PoolError::Dropped)?
+        rx.await.map_err(|_| Error::PoolDropped)?
     }
 }
 
@@ -75,11 +65,11 @@ mod tests {
         let name = pool.run(|| std::thread::current().name().map(str::to_string)).await;
         assert!(name.unwrap().unwrap().starts_with("farm-render-"));
         let sum = pool.run(|| (1..=100u64).sum::<u64>()).await;
-        assert_eq!(sum, Ok(5050));
+        assert_eq!(sum.unwrap(), 5050);
         let err = pool.run(|| -> u32 { panic!("boom {}", 7) }).await;
-        assert_eq!(err, Err(PoolError::Panicked("boom 7".into())));
+        assert!(matches!(err, Err(Error::Panicked(m)) if m == "boom 7"));
         let err = pool.run(|| -> u32 { panic!("static") }).await;
-        assert_eq!(err, Err(PoolError::Panicked("static".into())));
+        assert!(matches!(err, Err(Error::Panicked(m)) if m == "static"));
         // The pool survives panics.
         let many: Vec<_> = (0..8u32).map(|i| pool.run(move || i * i)).collect();
         let mut got = Vec::new();

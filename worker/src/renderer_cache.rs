@@ -4,6 +4,7 @@
 //! being built wait for that one build.
 
 use crate::blob_cache::{hex, BlobCache, BlobSource};
+use crate::error::Error;
 use crate::pool::CpuPool;
 use farm_proto::convert::{decode_manifest, Hash};
 use farm_render::{RenderOptions, Renderer};
@@ -15,18 +16,8 @@ use tokio::sync::watch;
 /// Renderers kept by default.
 pub const DEFAULT_RENDERERS: usize = 4;
 
-/// Why a renderer could not be built, as sent back in a `TileFailure`.
-#[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
-#[error("{message}")]
-pub struct BuildFailure {
-    /// What went wrong.
-    pub message: String,
-    /// Whether another attempt may succeed (network trouble, not a bad scene).
-    pub retryable: bool,
-}
-
 /// A build's outcome, shared by everyone waiting for it.
-pub type BuildResult = Result<Arc<Renderer>, BuildFailure>;
+pub type BuildResult = std::result::Result<Arc<Renderer>, Arc<Error>>;
 
 /// Scene hash and samples per pixel (0 = the scene's).
 type Key = (Hash, u32);
@@ -81,9 +72,7 @@ impl RendererCache {
             Ok(r) => r.clone(),
             Err(_) => None,
         };
-        result.unwrap_or_else(|| {
-            Err(BuildFailure { message: "the scene build was abandoned".into(), retryable: true })
-        })
+        result.unwrap_or_else(|| Err(Arc::new(Error::BuildAbandoned)))
     }
 
     fn lock(&self) -> MutexGuard<'_, (HashMap<Key, Entry>, u64)> {
@@ -119,9 +108,9 @@ impl RendererCache {
         tokio::spawn(async move {
             let result = cache.build(&source, key.0, key.1).await;
             if let Err(e) = &result {
-                tracing::warn!(scene = %hex(&key.0), spp = key.1, error = %e.message, "scene build failed");
+                tracing::warn!(scene = %hex(&key.0), spp = key.1, error = %e, "scene build failed");
                 // Network trouble: let a later tile try again.
-                if e.retryable {
+                if e.retryable() {
                     let mut guard = cache.lock();
                     if guard.0.get(&key).is_some_and(|e| e.result.same_channel(&watch)) {
                         guard.0.remove(&key);
@@ -135,11 +124,8 @@ impl RendererCache {
 
     /// Fetches, decodes and builds one scene.
     async fn build<S: BlobSource>(&self, source: &S, scene: Hash, spp: u32) -> BuildResult {
-        let fetch_failed = |e: crate::blob_cache::BlobError| BuildFailure {
-            retryable: e.retryable(),
-            message: e.to_string(),
-        };
-        let bad_scene = |message: String| BuildFailure { message, retryable: false };
+        let fetch_failed = Arc::new;
+        let bad_scene = |message: String| Arc::new(Error::BadScene(message));
         let started = std::time::Instant::now();
         let blobs = &self.inner.blobs;
         let pool = &self.inner.pool;
@@ -221,7 +207,7 @@ mod tests {
         let source = MapSource::new([b"not a manifest".to_vec()]);
         let cache = RendererCache::new(4, Arc::default(), CpuPool::new(1).unwrap());
         let bad = cache.get(&source, *blake3::hash(b"not a manifest").as_bytes(), 0).await;
-        assert!(!bad.unwrap_err().retryable);
+        assert!(!bad.unwrap_err().retryable());
         // A bad scene is remembered, not rebuilt.
         let _ = cache.get(&source, *blake3::hash(b"not a manifest").as_bytes(), 0).await;
         assert_eq!(cache.builds(), 1);
@@ -230,6 +216,6 @@ mod tests {
         let cache = RendererCache::new(4, Arc::default(), CpuPool::new(1).unwrap());
         let err =
             cache.get(&corrupt, *blake3::hash(b"not a manifest").as_bytes(), 0).await.unwrap_err();
-        assert!(err.retryable, "{err}");
+        assert!(err.retryable(), "{err}");
     }
 }

@@ -5,6 +5,7 @@
 
 use crate::assignment::{render_tile, TileOutcome};
 use crate::config::WorkerConfig;
+use crate::error::Error;
 use crate::health;
 use crate::pool::CpuPool;
 use crate::renderer_cache::{RendererCache, DEFAULT_RENDERERS};
@@ -17,7 +18,6 @@ use farm_proto::v1::{
 use farm_proto::{MAX_MESSAGE_SIZE, PROTOCOL_VERSION};
 use std::collections::HashMap;
 use std::future::Future;
-use std::net::SocketAddr;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 use std::time::Duration;
@@ -38,65 +38,13 @@ pub struct WorkerSummary {
     pub tiles_rendered: u64,
 }
 
-/// Why a worker stopped other than by being asked to.
-#[derive(Debug, thiserror::Error)]
-pub enum WorkerError {
-    /// The coordinator address is not a URI.
-    #[error("invalid coordinator address {address:?}: {message}")]
-    Address {
-        /// The address given.
-        address: String,
-        /// What is wrong with it.
-        message: String,
-    },
-    /// No connection could be made.
-    #[error("cannot connect to the coordinator at {address}: {source}")]
-    Connect {
-        /// The coordinator's address.
-        address: String,
-        /// The transport error.
-        #[source]
-        source: tonic::transport::Error,
-    },
-    /// The coordinator refused this worker (a protocol version mismatch).
-    #[error("the coordinator refused this worker: {message}")]
-    Refused {
-        /// The coordinator's explanation.
-        message: String,
-    },
-    /// Registration failed for another reason.
-    #[error("registering with the coordinator failed: {message}")]
-    Register {
-        /// The gRPC status.
-        message: String,
-    },
-    /// The work stream failed or the coordinator closed it.
-    #[error("the work stream ended: {message}")]
-    Stream {
-        /// What happened.
-        message: String,
-    },
-    /// The render pool could not start.
-    #[error("cannot start the render pool: {0}")]
-    Pool(#[from] rayon::ThreadPoolBuildError),
-    /// The health address could not be bound.
-    #[error("cannot serve health checks on {address}: {source}")]
-    Health {
-        /// The address asked for.
-        address: SocketAddr,
-        /// The bind error.
-        #[source]
-        source: std::io::Error,
-    },
-}
-
 /// Runs a worker until `shutdown` completes (then returns `Ok`), or until
 /// it fails for good: refused, or with `reconnect` off, unreachable or
 /// disconnected.
 pub async fn run(
     config: WorkerConfig,
     shutdown: impl Future<Output = ()> + Send,
-) -> Result<WorkerSummary, WorkerError> {
+) -> Result<WorkerSummary, Error> {
     let (stop_tx, stop_rx) = watch::channel(false);
     let work = run_until_stopped(config, stop_rx);
     tokio::pin!(work);
@@ -142,14 +90,14 @@ struct Worker {
 async fn run_until_stopped(
     config: WorkerConfig,
     mut stop: watch::Receiver<bool>,
-) -> Result<WorkerSummary, WorkerError> {
+) -> Result<WorkerSummary, Error> {
     let pool = CpuPool::new(config.render_threads())?;
     // Health is served until this function returns, whatever the coordinator does.
     let (_health_guard, health_stopped) = oneshot::channel::<()>();
     if let Some(address) = config.health_listen {
         let listener = tokio::net::TcpListener::bind(address)
             .await
-            .map_err(|source| WorkerError::Health { address, source })?;
+            .map_err(|source| Error::Health { address, source })?;
         let bound = listener.local_addr().unwrap_or(address);
         tracing::info!(%bound, "serving grpc.health.v1");
         tokio::spawn(async move {
@@ -180,10 +128,10 @@ async fn run_until_stopped(
                     SessionEnd::Lost(message) if worker.config.reconnect => {
                         tracing::warn!(%message, "lost the coordinator; registering again");
                     }
-                    SessionEnd::Lost(message) => return Err(WorkerError::Stream { message }),
+                    SessionEnd::Lost(message) => return Err(Error::Stream { message }),
                 }
             }
-            Err(e @ (WorkerError::Refused { .. } | WorkerError::Address { .. })) => return Err(e),
+            Err(e @ (Error::Refused { .. } | Error::Address { .. })) => return Err(e),
             Err(e) if worker.config.reconnect => {
                 tracing::warn!(error = %e, retry_in_ms = delay.as_millis() as u64, "coordinator unreachable");
             }
@@ -201,13 +149,13 @@ impl Worker {
     /// Connects and registers.
     async fn register(
         &self,
-    ) -> Result<(CoordinatorClient<Channel>, RegisterWorkerResponse), WorkerError> {
+    ) -> Result<(CoordinatorClient<Channel>, RegisterWorkerResponse), Error> {
         let address = self.config.coordinator.clone();
         let endpoint = Endpoint::from_shared(address.clone())
-            .map_err(|e| WorkerError::Address { address: address.clone(), message: e.to_string() })?
+            .map_err(|e| Error::Address { address: address.clone(), message: e.to_string() })?
             .connect_timeout(Duration::from_secs(5));
         let channel =
-            endpoint.connect().await.map_err(|source| WorkerError::Connect { address, source })?;
+            endpoint.connect().await.map_err(|source| Error::Connect { address, source })?;
         let mut client = CoordinatorClient::new(channel)
             .max_decoding_message_size(MAX_MESSAGE_SIZE)
             .max_encoding_message_size(MAX_MESSAGE_SIZE);
@@ -218,9 +166,9 @@ impl Worker {
         };
         let reply = client.register_worker(request).await.map_err(|s| {
             if s.code() == tonic::Code::FailedPrecondition {
-                WorkerError::Refused { message: s.message().to_string() }
+                Error::Refused { message: s.message().to_string() }
             } else {
-                WorkerError::Register { message: s.to_string() }
+                Error::Register { message: s.to_string() }
             }
         })?;
         let reply = reply.into_inner();
@@ -481,7 +429,7 @@ mod tests {
         // Without reconnect, the end of the stream is an error.
         let worker = tokio::spawn(run(config(url.clone(), false), std::future::pending()));
         drop(sessions.recv().await.unwrap());
-        assert!(matches!(worker.await.unwrap(), Err(WorkerError::Stream { .. })));
+        assert!(matches!(worker.await.unwrap(), Err(Error::Stream { .. })));
         // With reconnect, the worker registers again.
         let (stop, stopped) = oneshot::channel::<()>();
         let worker = tokio::spawn(run(config(url, true), async {
@@ -501,13 +449,13 @@ mod tests {
     async fn refusal_and_absence_fail_fast() {
         let (url, _sessions, _) = start_fake(Vec::new(), true).await;
         let err = run(config(url, true), std::future::pending()).await.unwrap_err();
-        let WorkerError::Refused { message } = err else { panic!("{err}") };
+        let Error::Refused { message } = err else { panic!("{err}") };
         assert!(message.contains("protocol version"));
         // Nothing listens on port 1.
         let err = run(config("http://127.0.0.1:1".into(), false), std::future::pending()).await;
-        assert!(matches!(err, Err(WorkerError::Connect { .. })));
+        assert!(matches!(err, Err(Error::Connect { .. })));
         let err = run(config("not a uri".into(), true), std::future::pending()).await;
-        assert!(matches!(err, Err(WorkerError::Address { .. })));
+        assert!(matches!(err, Err(Error::Address { .. })));
     }
 
     #[tokio::test]

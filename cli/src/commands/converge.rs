@@ -1,6 +1,5 @@
 //! `farm converge`: error against render time over increasing sample counts.
 
-use crate::EXIT_BAD_INPUT;
 use std::path::PathBuf;
 use std::process::ExitCode;
 
@@ -34,7 +33,7 @@ pub struct ConvergeArgs {
 /// `farm converge`: renders the series, prints the table and writes the
 /// CSV and the plot.
 pub fn run(args: &ConvergeArgs) -> ExitCode {
-    use crate::converge::{self, ConvergeError, ConvergeOptions};
+    use crate::converge::{self, ConvergeOptions};
     let opts = ConvergeOptions {
         spp: args.spp.clone(),
         reference: args.reference.clone(),
@@ -57,11 +56,7 @@ pub fn run(args: &ConvergeArgs) -> ExitCode {
     bar.finish_and_clear();
     let series = match result {
         Ok(s) => s,
-        Err(ConvergeError::Render(e)) => return super::submit::fail(&e),
-        Err(e) => {
-            eprintln!("error: {e}");
-            return ExitCode::from(EXIT_BAD_INPUT);
-        }
+        Err(e) => return super::submit::fail(&e),
     };
     let (csv, plot) = converge::default_paths(&args.scene);
     let csv = args.csv.clone().unwrap_or(csv);

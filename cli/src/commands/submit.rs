@@ -1,8 +1,8 @@
 //! `farm submit`: render a scene here (the embedded engine) or on a farm
 //! (`--coordinator`), then write the image and print the summary.
 
-use crate::embedded::{self, SubmitError, SubmitOptions};
-use crate::EXIT_BAD_INPUT;
+use crate::embedded::{self, SubmitOptions};
+use crate::error::Error;
 use std::path::PathBuf;
 use std::process::ExitCode;
 
@@ -74,14 +74,7 @@ async fn run_remote(args: SubmitArgs) -> ExitCode {
     bar.finish_and_clear();
     match result {
         Ok(summary) => finish(&args, summary),
-        Err(crate::client::ClientError::Scene(e)) => {
-            eprintln!("error: {e}");
-            ExitCode::from(EXIT_BAD_INPUT)
-        }
-        Err(e) => {
-            eprintln!("error: {e}");
-            ExitCode::FAILURE
-        }
+        Err(e) => fail(&e),
     }
 }
 
@@ -167,10 +160,7 @@ fn finish(args: &SubmitArgs, summary: embedded::RenderSummary) -> ExitCode {
 }
 
 /// Prints a render error and returns its exit code.
-pub fn fail(e: &SubmitError) -> ExitCode {
+pub fn fail(e: &Error) -> ExitCode {
     eprintln!("error: {e}");
-    match e {
-        SubmitError::Scene(_) | SubmitError::Build(_) => ExitCode::from(EXIT_BAD_INPUT),
-        _ => ExitCode::FAILURE,
-    }
+    e.exit_code()
 }

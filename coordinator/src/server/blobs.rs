@@ -1,6 +1,7 @@
 //! The coordinator's content-addressed store of scene manifests and assets.
 
-use farm_proto::convert::{BlobAssembler, ChunkError, Hash};
+use crate::error::{Error, Result};
+use farm_proto::convert::{BlobAssembler, Hash};
 use farm_proto::v1::BlobChunk;
 use std::collections::HashMap;
 use std::sync::{Arc, Mutex};
@@ -9,17 +10,6 @@ use std::sync::{Arc, Mutex};
 #[derive(Clone, Default)]
 pub struct BlobStore {
     inner: Arc<Mutex<HashMap<Hash, Arc<Vec<u8>>>>>,
-}
-
-/// Why an upload was refused.
-#[derive(Debug, thiserror::Error, PartialEq, Eq)]
-pub enum UploadError {
-    /// The chunks do not form a blob.
-    #[error("chunks are inconsistent: {0}")]
-    Inconsistent(#[from] ChunkError),
-    /// The bytes do not hash to the declared hash.
-    #[error("the data does not match its hash")]
-    HashMismatch,
 }
 
 /// Largest blob accepted (4 GiB).
@@ -40,15 +30,15 @@ impl BlobStore {
     }
 
     /// Reassembles uploaded chunks, checks the hash and stores the blob.
-    pub fn assemble(&self, chunks: &[BlobChunk]) -> Result<(Hash, usize), UploadError> {
+    pub fn assemble(&self, chunks: &[BlobChunk]) -> Result<(Hash, usize)> {
         let mut a = BlobAssembler::new(MAX_BLOB_SIZE);
         for c in chunks {
             a.push(c)?;
         }
         let (hash, data) = a.finish()?;
-        let hash: Hash = hash.as_slice().try_into().map_err(|_| UploadError::HashMismatch)?;
+        let hash: Hash = hash.as_slice().try_into().map_err(|_| Error::HashMismatch)?;
         if blake3::hash(&data).as_bytes() != &hash {
-            return Err(UploadError::HashMismatch);
+            return Err(Error::HashMismatch);
         }
         let n = data.len();
         self.put(hash, Arc::new(data));
@@ -69,14 +59,11 @@ mod tests {
         let store = BlobStore::default();
         let parts = blob_chunks(&hash, &data);
         assert_eq!(parts.len(), 2);
-        assert_eq!(store.assemble(&parts), Ok((hash, data.len())));
+        assert_eq!(store.assemble(&parts).unwrap(), (hash, data.len()));
         assert_eq!(store.get(&hash).as_deref(), Some(&data));
         let mut bad = parts.clone();
         bad[1].data[0] ^= 1;
-        assert_eq!(BlobStore::default().assemble(&bad), Err(UploadError::HashMismatch));
-        assert!(matches!(
-            BlobStore::default().assemble(&parts[..1]),
-            Err(UploadError::Inconsistent(_))
-        ));
+        assert!(matches!(BlobStore::default().assemble(&bad), Err(Error::HashMismatch)));
+        assert!(matches!(BlobStore::default().assemble(&parts[..1]), Err(Error::Chunks(_))));
     }
 }

@@ -1,10 +1,12 @@
 //! The coordinator's single event loop and the gRPC [`Outbox`].
 
 use super::ServerConfig;
+use crate::error::Error;
 use crate::scheduler::{Assignment, JobRow, JobSpec, JobUpdate, Outbox, Scheduler, WorkerRow};
 use farm_common::film::FilmTile;
 use farm_common::ids::{JobId, TileId, WorkerId};
 use farm_common::stats::RayStats;
+use farm_proto::convert::{image_chunks, ImageFacts};
 use farm_proto::v1::{self, coordinator_message, job_event, tile_result, worker_message};
 use std::collections::HashMap;
 use std::time::Instant;
@@ -88,9 +90,6 @@ fn rpc_stats(s: &RayStats) -> Option<v1::RayStats> {
     Some(v1::RayStats::from(s))
 }
 
-/// Bytes of pixel rows per image event, well below the message limit.
-const IMAGE_CHUNK_BYTES: usize = 8 << 20;
-
 /// The protocol form of a job update: one event, or for a finished image
 /// one event per chunk of rows.
 fn job_events(update: &JobUpdate) -> Vec<v1::JobEvent> {
@@ -105,40 +104,11 @@ fn job_events(update: &JobUpdate) -> Vec<v1::JobEvent> {
             }))
         }
         JobUpdate::Finished(f) => {
-            let (w, h) = (f.image.width, f.image.height);
-            let rows_per_chunk = (IMAGE_CHUNK_BYTES / (w * 12).max(1)).max(1);
-            (0..h.max(1))
-                .step_by(rows_per_chunk)
-                .map(|y0| {
-                    let y1 = (y0 + rows_per_chunk).min(h);
-                    let mut rgb = Vec::with_capacity((y1 - y0) * w * 12);
-                    for p in f.image.pixels.get(y0 * w..y1 * w).unwrap_or_default() {
-                        for c in p {
-                            rgb.extend_from_slice(&c.to_le_bytes());
-                        }
-                    }
-                    let error_map: Vec<u8> = f
-                        .error
-                        .as_ref()
-                        .and_then(|e| e.per_pixel.get(y0 * w..y1 * w))
-                        .unwrap_or_default()
-                        .iter()
-                        .flat_map(|v| v.to_le_bytes())
-                        .collect();
-                    v1::JobEvent {
-                        kind: Some(job_event::Kind::Image(v1::JobImage {
-                            width: w as u32,
-                            height: h as u32,
-                            rgb,
-                            first_row: y0 as u32,
-                            error_map,
-                            estimated_rel_mse: f.error.as_ref().map(|e| e.rel_mse),
-                            spp: f.spp,
-                            render_seconds: f.render_seconds,
-                            stats: rpc_stats(&f.stats),
-                        })),
-                    }
-                })
+            let facts = ImageFacts { spp: f.spp, render_seconds: f.render_seconds, stats: f.stats };
+            let error = f.error.as_ref().map(|e| (e.per_pixel.as_slice(), e.rel_mse));
+            image_chunks(&f.image, error, &facts)
+                .into_iter()
+                .map(|img| v1::JobEvent { kind: Some(job_event::Kind::Image(img)) })
                 .collect()
         }
         JobUpdate::Failed(m) => one(job_event::Kind::Failed(v1::JobFailed { message: m.clone() })),
@@ -172,8 +142,7 @@ impl Outbox for GrpcOutbox {
 
     fn disconnect(&mut self, worker: WorkerId) {
         if let Some(tx) = self.workers.remove(&worker) {
-            let _ =
-                tx.send(Err(Status::deadline_exceeded("no heartbeat from this worker in time")));
+            let _ = tx.send(Err(Error::WorkerSilent.into()));
         }
     }
 

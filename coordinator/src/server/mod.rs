@@ -6,7 +6,7 @@ mod blobs;
 mod events;
 mod service;
 
-pub use blobs::{BlobStore, UploadError};
+pub use blobs::BlobStore;
 pub use events::{Event, FromWorker};
 
 use crate::scheduler::SchedulerConfig;
@@ -47,24 +47,13 @@ impl ServerConfig {
     }
 }
 
-/// Why the coordinator stopped.
-#[derive(Debug, thiserror::Error)]
-pub enum ServerError {
-    /// The transport failed.
-    #[error("gRPC server: {0}")]
-    Transport(#[from] tonic::transport::Error),
-    /// The scheduler's event loop failed.
-    #[error("the scheduler failed: {0}")]
-    Scheduler(String),
-}
-
 /// Serves the coordinator on `listener` until `shutdown` completes; then
 /// tells clients of unfinished jobs and stops.
 pub async fn serve(
     listener: TcpListener,
     config: ServerConfig,
     shutdown: impl Future<Output = ()> + Send,
-) -> Result<(), ServerError> {
+) -> crate::error::Result<()> {
     let (events, rx) = mpsc::unbounded_channel();
     let mut loop_task = tokio::spawn(events::run(rx, config.clone()));
     let ticker = {
@@ -109,6 +98,6 @@ pub async fn serve(
     let _ = events.send(Event::Shutdown);
     drop(events);
     let loop_result = if loop_task.is_finished() { Ok(()) } else { loop_task.await };
-    result.map_err(ServerError::from)?;
-    loop_result.map_err(|e| ServerError::Scheduler(e.to_string()))
+    result?;
+    loop_result.map_err(|e| crate::error::Error::Scheduler(e.to_string()))
 }

@@ -3,6 +3,7 @@
 
 use super::blobs::BlobStore;
 use super::events::{Event, FromWorker};
+use crate::error::Error;
 use crate::scheduler::JobSpec;
 use farm_common::ids::{JobId, WorkerId};
 use farm_proto::convert::{blob_chunks, decode_manifest};
@@ -44,17 +45,20 @@ impl CoordinatorService {
     }
 
     fn send(&self, ev: Event) -> Result<(), Status> {
-        self.events.send(ev).map_err(|_| Status::unavailable("the coordinator is shutting down"))
+        self.events.send(ev).map_err(|_| Error::ShuttingDown.into())
     }
 }
 
 fn check_version(v: u32) -> Result<(), Status> {
     if v != PROTOCOL_VERSION {
-        return Err(Status::failed_precondition(format!(
-            "protocol version {v} is not supported: this coordinator speaks version {PROTOCOL_VERSION}"
-        )));
+        return Err(Error::ProtocolVersion(v).into());
     }
     Ok(())
+}
+
+/// The event loop's answer; none means it has stopped.
+async fn answer<T>(rx: oneshot::Receiver<T>) -> Result<T, Status> {
+    rx.await.map_err(|_| Error::ShuttingDown.into())
 }
 
 #[tonic::async_trait]
@@ -86,21 +90,14 @@ impl Coordinator for CoordinatorService {
         req: Request<Streaming<v1::WorkerMessage>>,
     ) -> Result<Response<Self::WorkStream>, Status> {
         let mut inbound = req.into_inner();
-        let first = inbound
-            .message()
-            .await?
-            .ok_or_else(|| Status::invalid_argument("empty Work stream"))?;
+        let first = inbound.message().await?.ok_or(Error::EmptyWorkStream)?;
         let Some(worker_message::Kind::Hello(hello)) = first.kind else {
-            return Err(Status::invalid_argument(
-                "the first message on a Work stream must be Hello",
-            ));
+            return Err(Error::NoHello.into());
         };
         let id = WorkerId(hello.worker_id);
         let known = self.registered.lock().ok().and_then(|m| m.get(&id).cloned());
         let Some((name, threads)) = known else {
-            return Err(Status::failed_precondition(
-                "unknown worker id: call RegisterWorker first",
-            ));
+            return Err(Error::UnknownWorker.into());
         };
         let (tx, rx) = mpsc::unbounded_channel();
         let max_in_flight = if hello.max_in_flight == 0 {
@@ -138,8 +135,7 @@ impl Coordinator for CoordinatorService {
         req: Request<v1::FetchBlobRequest>,
     ) -> Result<Response<Self::FetchBlobStream>, Status> {
         let hash = req.into_inner().hash;
-        let data =
-            self.blobs.get(&hash).ok_or_else(|| Status::not_found("no blob with that hash"))?;
+        let data = self.blobs.get(&hash).ok_or(Error::NoBlob)?;
         let parts = blob_chunks(&hash, &data);
         Ok(Response::new(Box::pin(tokio_stream::iter(parts.into_iter().map(Ok)))))
     }
@@ -153,9 +149,8 @@ impl Coordinator for CoordinatorService {
         while let Some(c) = stream.next().await {
             parts.push(c?);
         }
-        let (_, size) = self.blobs.assemble(&parts).map_err(|e| {
+        let (_, size) = self.blobs.assemble(&parts).inspect_err(|e| {
             warn!(error = %e, "upload refused");
-            Status::invalid_argument(format!("upload refused: {e}"))
         })?;
         Ok(Response::new(v1::UploadBlobResponse { size: size as u64 }))
     }
@@ -166,16 +161,12 @@ impl Coordinator for CoordinatorService {
     ) -> Result<Response<v1::SubmitJobResponse>, Status> {
         let r = req.into_inner();
         check_version(r.protocol_version)?;
-        let manifest = self.blobs.get(&r.scene_hash).ok_or_else(|| {
-            Status::failed_precondition("upload the scene manifest before submitting")
-        })?;
+        let manifest = self.blobs.get(&r.scene_hash).ok_or(Error::NoManifest)?;
         let (desc, assets) =
-            decode_manifest(&manifest).map_err(|e| Status::invalid_argument(e.to_string()))?;
+            decode_manifest(&manifest).map_err(|e| Error::BadManifest(e.to_string()))?;
         for (key, hash) in &assets {
             if self.blobs.get(hash).is_none() {
-                return Err(Status::failed_precondition(format!(
-                    "asset {key} has not been uploaded"
-                )));
+                return Err(Error::MissingAsset(key.clone()).into());
             }
         }
         let spp_override = (r.spp > 0).then_some(r.spp);
@@ -183,7 +174,7 @@ impl Coordinator for CoordinatorService {
         let spp = layout.spp();
         let geometry = layout.geometry;
         if geometry.cropped_pixel_bounds.is_empty() {
-            return Err(Status::invalid_argument("the film has no pixels"));
+            return Err(Error::EmptyFilm.into());
         }
         let spec = JobSpec {
             name: if r.name.is_empty() { desc.name.clone() } else { r.name },
@@ -195,7 +186,7 @@ impl Coordinator for CoordinatorService {
         };
         let (reply, rx) = oneshot::channel();
         self.send(Event::Submit { spec, reply })?;
-        let id = rx.await.map_err(|_| Status::unavailable("the coordinator is shutting down"))?;
+        let id = answer(rx).await?;
         Ok(Response::new(v1::SubmitJobResponse { job_id: id.0 }))
     }
 
@@ -211,10 +202,8 @@ impl Coordinator for CoordinatorService {
         self.send(Event::Watch { job, tx, reply })?;
         // No answer at all means the event loop has stopped: the
         // coordinator is shutting down, which is not the same as "no job".
-        let known =
-            known.await.map_err(|_| Status::unavailable("the coordinator is shutting down"))?;
-        if !known {
-            return Err(Status::not_found(format!("no job {}", job.0)));
+        if !answer(known).await? {
+            return Err(Error::NoJob(job.0).into());
         }
         Ok(Response::new(Box::pin(UnboundedReceiverStream::new(rx))))
     }
@@ -225,8 +214,7 @@ impl Coordinator for CoordinatorService {
     ) -> Result<Response<v1::GetStatusResponse>, Status> {
         let (reply, rx) = oneshot::channel();
         self.send(Event::Status { reply })?;
-        let (jobs, workers) =
-            rx.await.map_err(|_| Status::unavailable("the coordinator is shutting down"))?;
+        let (jobs, workers) = answer(rx).await?;
         Ok(Response::new(v1::GetStatusResponse {
             jobs: jobs
                 .into_iter()
@@ -259,8 +247,7 @@ impl Coordinator for CoordinatorService {
         let job = JobId(req.into_inner().job_id);
         let (reply, rx) = oneshot::channel();
         self.send(Event::Cancel { job, reply })?;
-        let cancelled =
-            rx.await.map_err(|_| Status::unavailable("the coordinator is shutting down"))?;
+        let cancelled = answer(rx).await?;
         Ok(Response::new(v1::CancelJobResponse { cancelled }))
     }
 }

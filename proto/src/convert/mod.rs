@@ -2,10 +2,11 @@
 //! content-addressed encoding of scenes.
 
 mod blob;
+mod image;
 mod scene;
 mod stats;
 mod tile;
 
-pub use blob::{blob_chunks, BlobAssembler, ChunkError};
-pub use scene::{decode_manifest, decode_scene, encode_scene, Blob, Hash, SceneDecodeError};
-pub use tile::TileDecodeError;
+pub use blob::{blob_chunks, BlobAssembler};
+pub use image::{image_chunks, AssembledImage, ImageAssembler, ImageFacts, IMAGE_CHUNK_BYTES};
+pub use scene::{decode_manifest, decode_scene, encode_scene, Blob, Hash};

@@ -3,6 +3,7 @@
 //! asset. Blobs are content-addressed, so each is sent to a worker at most
 //! once however many jobs use it.
 
+use crate::error::Error;
 use farm_common::scene::SceneDescription;
 use std::sync::Arc;
 
@@ -25,36 +26,19 @@ impl Blob {
     }
 }
 
-/// Why a scene manifest could not be read.
-#[derive(Debug, thiserror::Error)]
-pub enum SceneDecodeError {
-    /// The bytes are not a manifest of this protocol version.
-    #[error("malformed scene manifest: {0}")]
-    Malformed(String),
-    /// An asset the manifest names is missing or does not match its hash.
-    #[error("scene asset {key} is missing or corrupt")]
-    Asset {
-        /// The asset's key in the scene.
-        key: String,
-    },
-}
-
 /// The manifest blob and the asset blobs of a scene.
-pub fn encode_scene(desc: &SceneDescription) -> Result<(Blob, Vec<Blob>), SceneDecodeError> {
+pub fn encode_scene(desc: &SceneDescription) -> Result<(Blob, Vec<Blob>), Error> {
     let assets: Vec<(String, Blob)> =
         desc.assets.iter().map(|(k, v)| (k.clone(), Blob::new(v.clone()))).collect();
     let refs: Vec<(&str, Hash)> = assets.iter().map(|(k, b)| (k.as_str(), b.hash)).collect();
-    let bytes = postcard::to_stdvec(&(desc, refs))
-        .map_err(|e| SceneDecodeError::Malformed(e.to_string()))?;
+    let bytes = postcard::to_stdvec(&(desc, refs)).map_err(|e| Error::Malformed(e.to_string()))?;
     Ok((Blob::new(bytes), assets.into_iter().map(|(_, b)| b).collect()))
 }
 
 /// The description in a manifest (with no assets yet) and the assets it
 /// needs, by key and hash.
-pub fn decode_manifest(
-    bytes: &[u8],
-) -> Result<(SceneDescription, Vec<(String, Hash)>), SceneDecodeError> {
-    postcard::from_bytes(bytes).map_err(|e| SceneDecodeError::Malformed(e.to_string()))
+pub fn decode_manifest(bytes: &[u8]) -> Result<(SceneDescription, Vec<(String, Hash)>), Error> {
+    postcard::from_bytes(bytes).map_err(|e| Error::Malformed(e.to_string()))
 }
 
 /// The full description: the manifest's, with each asset looked up by hash
@@ -62,12 +46,12 @@ pub fn decode_manifest(
 pub fn decode_scene(
     manifest: &[u8],
     mut fetch: impl FnMut(&Hash) -> Option<Arc<Vec<u8>>>,
-) -> Result<SceneDescription, SceneDecodeError> {
+) -> Result<SceneDescription, Error> {
     let (mut desc, assets) = decode_manifest(manifest)?;
     for (key, hash) in assets {
         let data = fetch(&hash).filter(|d| blake3::hash(d).as_bytes() == &hash);
         let Some(data) = data else {
-            return Err(SceneDecodeError::Asset { key });
+            return Err(Error::Asset { key });
         };
         desc.assets.insert(key, data.as_ref().clone());
     }

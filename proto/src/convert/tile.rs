@@ -1,34 +1,10 @@
 //! Film tiles travel as raw little-endian f32 bytes: eight per pixel (see
 //! [`Pixel::to_array`]).
 
+use crate::error::Error;
 use crate::v1;
 use farm_common::film::{FilmTile, Pixel};
 use farm_common::geometry::{Bounds2i, Point2i};
-
-/// Why a film tile from the wire was refused.
-#[derive(Debug, thiserror::Error, PartialEq, Eq)]
-pub enum TileDecodeError {
-    /// The bounds are inverted or absurdly large.
-    #[error("film tile bounds ({x0},{y0})-({x1},{y1}) are invalid")]
-    BadBounds {
-        /// Left.
-        x0: i32,
-        /// Top.
-        y0: i32,
-        /// Right.
-        x1: i32,
-        /// Bottom.
-        y1: i32,
-    },
-    /// The byte count does not match the bounds.
-    #[error("film tile holds {got} bytes where its bounds need {want}")]
-    WrongSize {
-        /// Bytes received.
-        got: usize,
-        /// Bytes the bounds call for.
-        want: usize,
-    },
-}
 
 /// Bytes of one pixel on the wire.
 pub const PIXEL_BYTES: usize = 32;
@@ -47,17 +23,17 @@ impl From<&FilmTile> for v1::FilmTile {
 }
 
 impl TryFrom<&v1::FilmTile> for FilmTile {
-    type Error = TileDecodeError;
+    type Error = Error;
 
     fn try_from(t: &v1::FilmTile) -> Result<Self, Self::Error> {
-        let bad = TileDecodeError::BadBounds { x0: t.x0, y0: t.y0, x1: t.x1, y1: t.y1 };
+        let bad = Error::BadBounds { x0: t.x0, y0: t.y0, x1: t.x1, y1: t.y1 };
         let (w, h) = (t.x1 as i64 - t.x0 as i64, t.y1 as i64 - t.y0 as i64);
         if w < 0 || h < 0 || w * h > 1 << 24 {
             return Err(bad);
         }
         let n = (w * h) as usize;
         if t.pixels.len() != n * PIXEL_BYTES {
-            return Err(TileDecodeError::WrongSize { got: t.pixels.len(), want: n * PIXEL_BYTES });
+            return Err(Error::WrongSize { got: t.pixels.len(), want: n * PIXEL_BYTES });
         }
         let pixels = t
             .pixels
@@ -94,11 +70,8 @@ mod tests {
         let t = FilmTile::new(Bounds2i::new(Point2i::new(0, 0), Point2i::new(2, 2)));
         let mut wire = v1::FilmTile::from(&t);
         wire.pixels.pop();
-        assert_eq!(
-            FilmTile::try_from(&wire),
-            Err(TileDecodeError::WrongSize { got: 127, want: 128 })
-        );
+        assert_eq!(FilmTile::try_from(&wire), Err(Error::WrongSize { got: 127, want: 128 }));
         wire.x1 = -5;
-        assert!(matches!(FilmTile::try_from(&wire), Err(TileDecodeError::BadBounds { .. })));
+        assert!(matches!(FilmTile::try_from(&wire), Err(Error::BadBounds { .. })));
     }
 }

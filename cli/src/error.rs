@@ -1,0 +1,78 @@
+//! The CLI crate's one error type, and the exit code each error gives.
+
+use crate::EXIT_BAD_INPUT;
+use farm_common::image::ImageError;
+use farm_render::BuildError;
+use farm_scene::SceneError;
+use std::process::ExitCode;
+
+/// Everything that can stop a `farm` command.
+#[derive(Debug, thiserror::Error)]
+pub enum Error {
+    // Rendering.
+    /// The scene file is malformed.
+    #[error(transparent)]
+    Scene(#[from] SceneError),
+    /// The scene could not be built.
+    #[error("{0}")]
+    Build(#[from] BuildError),
+    /// The image could not be written.
+    #[error(transparent)]
+    Image(#[from] ImageError),
+    /// The thread pool could not start.
+    #[error("cannot start render threads: {0}")]
+    Threads(#[from] rayon::ThreadPoolBuildError),
+    // Talking to a coordinator.
+    /// The address is not a valid URL or nothing answers there.
+    #[error("cannot reach the coordinator at {url}: {source}")]
+    Connect {
+        /// The address.
+        url: String,
+        /// What failed.
+        source: tonic::transport::Error,
+    },
+    /// The coordinator refused or failed a call.
+    #[error("the coordinator says: {}", .0.message())]
+    Rpc(#[from] tonic::Status),
+    /// The job failed on the farm.
+    #[error("the job failed: {0}")]
+    JobFailed(String),
+    /// The coordinator's answer made no sense.
+    #[error("bad answer from the coordinator: {0}")]
+    Protocol(String),
+    // `farm converge`.
+    /// The reference could not be read.
+    #[error(transparent)]
+    Reference(ImageError),
+    /// The reference's size is not the render's.
+    #[error("the reference {path} is {rw}×{rh} but the render is {w}×{h}")]
+    SizeMismatch {
+        /// The reference.
+        path: String,
+        /// Reference width.
+        rw: usize,
+        /// Reference height.
+        rh: usize,
+        /// Render width.
+        w: usize,
+        /// Render height.
+        h: usize,
+    },
+}
+
+/// Results of the CLI.
+pub type Result<T> = std::result::Result<T, Error>;
+
+impl Error {
+    /// The process exit code: 2 for bad input (the scene, the reference),
+    /// 1 for everything else.
+    pub fn exit_code(&self) -> ExitCode {
+        match self {
+            Error::Scene(_)
+            | Error::Build(_)
+            | Error::Reference(_)
+            | Error::SizeMismatch { .. } => ExitCode::from(EXIT_BAD_INPUT),
+            _ => ExitCode::FAILURE,
+        }
+    }
+}

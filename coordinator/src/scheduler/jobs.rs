@@ -1,0 +1,352 @@
+//! Jobs: their life from submission to image, failure or cancellation,
+//! and what each tile result does to them.
+
+use super::{FinishedJob, JobUpdate, Outbox, Scheduler};
+use crate::merge::{Accepted, Film};
+use farm_common::film::{FilmGeometry, FilmTile};
+use farm_common::ids::{JobId, TileId, WorkerId};
+use farm_common::stats::RayStats;
+use std::collections::{HashMap, HashSet, VecDeque};
+use std::time::{Duration, Instant};
+use tracing::{debug, info, warn};
+
+/// Where a job is in its life.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub enum JobState {
+    /// No tile handed out yet.
+    Queued,
+    /// Tiles are out.
+    Running,
+    /// Image complete.
+    Done,
+    /// Failed, with the reason.
+    Failed(String),
+    /// Cancelled by a client.
+    Cancelled,
+}
+
+impl JobState {
+    /// Lower-case name for listings.
+    pub fn name(&self) -> &'static str {
+        match self {
+            JobState::Queued => "queued",
+            JobState::Running => "running",
+            JobState::Done => "done",
+            JobState::Failed(_) => "failed",
+            JobState::Cancelled => "cancelled",
+        }
+    }
+    pub(super) fn is_active(&self) -> bool {
+        matches!(self, JobState::Queued | JobState::Running)
+    }
+}
+
+/// A job as submitted.
+#[derive(Clone, Debug)]
+pub struct JobSpec {
+    /// A name for listings.
+    pub name: String,
+    /// Higher first; ties in submission order.
+    pub priority: i32,
+    /// Hash of the scene manifest.
+    pub scene_hash: Vec<u8>,
+    /// Samples per pixel override (0 = the scene's).
+    pub spp_override: u32,
+    /// Samples per pixel actually used.
+    pub spp: u32,
+    /// The film layout.
+    pub geometry: FilmGeometry,
+}
+
+pub(super) struct Job {
+    pub(super) id: JobId,
+    pub(super) spec: JobSpec,
+    pub(super) state: JobState,
+    pub(super) film: Option<Film>,
+    pub(super) pending: VecDeque<u32>,
+    pub(super) in_flight: HashMap<u32, (WorkerId, u32)>,
+    pub(super) attempts: HashMap<u32, u32>,
+    pub(super) failures: HashMap<u32, Vec<(WorkerId, String)>>,
+    pub(super) worker_failures: HashMap<WorkerId, u32>,
+    pub(super) stats: RayStats,
+    pub(super) started: Option<Instant>,
+    pub(super) done_tiles: u32,
+    pub(super) last_progress: Instant,
+    pub(super) finished: Option<std::sync::Arc<FinishedJob>>,
+}
+
+/// Longest quiet spell between progress updates of a running job.
+const PROGRESS_EVERY: Duration = Duration::from_millis(100);
+
+/// A row of `farm status`.
+#[derive(Clone, Debug, PartialEq)]
+pub struct JobRow {
+    /// Id.
+    pub id: JobId,
+    /// Name.
+    pub name: String,
+    /// State name.
+    pub state: &'static str,
+    /// Tiles in.
+    pub done: u32,
+    /// All tiles.
+    pub total: u32,
+    /// Priority.
+    pub priority: i32,
+}
+
+impl Scheduler {
+    /// Queues a job and hands out tiles.
+    pub fn submit(&mut self, spec: JobSpec, out: &mut impl Outbox) -> JobId {
+        let id = JobId(self.next_job);
+        self.next_job += 1;
+        let total = spec.geometry.tile_count();
+        info!(job = id.0, name = %spec.name, tiles = total, priority = spec.priority, "job queued");
+        let job = Job {
+            id,
+            film: Some(Film::new(spec.geometry.clone())),
+            spec,
+            state: JobState::Queued,
+            pending: (0..total).collect(),
+            in_flight: HashMap::new(),
+            attempts: HashMap::new(),
+            failures: HashMap::new(),
+            worker_failures: HashMap::new(),
+            stats: RayStats::default(),
+            started: None,
+            done_tiles: 0,
+            last_progress: Instant::now(),
+            finished: None,
+        };
+        self.jobs.insert(id, job);
+        if total == 0 {
+            self.finish(id, out);
+        }
+        self.fill(out);
+        id
+    }
+
+    /// A rendered tile. Results for unknown jobs, tiles already in, or bad
+    /// tiles are refused with a logged reason.
+    pub fn tile_done(
+        &mut self,
+        worker: WorkerId,
+        job: JobId,
+        tile: TileId,
+        film_tile: FilmTile,
+        stats: RayStats,
+        out: &mut impl Outbox,
+    ) {
+        self.release(worker, job, tile.0);
+        let Some(j) = self.jobs.get_mut(&job) else {
+            warn!(worker = worker.0, job = job.0, "result for an unknown job ignored");
+            return;
+        };
+        let Some(film) = j.film.as_mut().filter(|_| j.state.is_active()) else {
+            debug!(job = job.0, tile = tile.0, "result for a finished job ignored");
+            return;
+        };
+        match film.accept(tile, film_tile) {
+            Ok(Accepted::New) => {
+                // A tile is pending, in flight or in: only a late result for a
+                // requeued tile can still be in the queue.
+                if j.in_flight.remove(&tile.0).is_none() {
+                    j.pending.retain(|&t| t != tile.0);
+                }
+                j.stats.add(&stats);
+                j.done_tiles += 1;
+                if let Some(w) = self.workers.get_mut(&worker) {
+                    w.tiles_done += 1;
+                }
+                // Progress goes out every 0.5% of the tiles or 100 ms, not per tile.
+                let total = j.spec.geometry.tile_count();
+                let now = Instant::now();
+                let step = (total / 200).max(1);
+                if j.done_tiles == total
+                    || j.done_tiles % step == 0
+                    || now.duration_since(j.last_progress) >= PROGRESS_EVERY
+                {
+                    j.last_progress = now;
+                    let workers: HashSet<WorkerId> =
+                        j.in_flight.values().map(|(w, _)| *w).collect();
+                    let update = JobUpdate::Progress {
+                        done: j.done_tiles,
+                        total,
+                        workers: workers.len() as u32,
+                        stats: j.stats,
+                    };
+                    out.notify(job, update);
+                }
+                if film.is_complete() {
+                    self.finish(job, out);
+                }
+            }
+            Ok(Accepted::Duplicate) => {
+                debug!(job = job.0, tile = tile.0, "duplicate tile result ignored")
+            }
+            Err(e) => {
+                warn!(worker = worker.0, job = job.0, tile = tile.0, error = %e, "tile result refused");
+                self.record_failure(
+                    worker,
+                    job,
+                    tile.0,
+                    format!("bad tile from worker: {e}"),
+                    true,
+                    out,
+                );
+            }
+        }
+        self.fill(out);
+    }
+
+    /// A tile a worker could not render.
+    pub fn tile_failed(
+        &mut self,
+        worker: WorkerId,
+        job: JobId,
+        tile: TileId,
+        message: String,
+        retryable: bool,
+        out: &mut impl Outbox,
+    ) {
+        self.release(worker, job, tile.0);
+        if self.jobs.get(&job).is_some_and(|j| {
+            j.state.is_active() && j.in_flight.get(&tile.0).is_some_and(|(w, _)| *w == worker)
+        }) {
+            self.record_failure(worker, job, tile.0, message, retryable, out);
+        } else {
+            debug!(worker = worker.0, job = job.0, tile = tile.0, "stale failure ignored");
+        }
+        self.fill(out);
+    }
+
+    /// Cancels a job; returns whether it was still active.
+    pub fn cancel(&mut self, job: JobId, out: &mut impl Outbox) -> bool {
+        let Some(j) = self.jobs.get_mut(&job) else { return false };
+        if !j.state.is_active() {
+            return false;
+        }
+        j.state = JobState::Cancelled;
+        j.film = None;
+        j.pending.clear();
+        let holders: HashSet<WorkerId> = j.in_flight.drain().map(|(_, (w, _))| w).collect();
+        for w in holders {
+            out.cancel(w, job);
+            if let Some(wk) = self.workers.get_mut(&w) {
+                wk.in_flight.retain(|(jb, _)| *jb != job);
+            }
+            self.refresh_ready(w);
+        }
+        info!(job = job.0, "job cancelled");
+        out.notify(job, JobUpdate::Failed("the job was cancelled".into()));
+        self.fill(out);
+        true
+    }
+
+    /// Fails an active job that cannot finish (an embedded render whose
+    /// only worker may take none of its remaining tiles); returns whether
+    /// it was active.
+    pub fn abandon(&mut self, job: JobId, reason: String, out: &mut impl Outbox) -> bool {
+        if !self.jobs.get(&job).is_some_and(|j| j.state.is_active()) {
+            return false;
+        }
+        self.fail(job, reason, out);
+        true
+    }
+
+    /// Fails every active job (coordinator shutting down).
+    pub fn shutdown(&mut self, out: &mut impl Outbox) {
+        for (id, j) in &mut self.jobs {
+            if j.state.is_active() {
+                j.state = JobState::Failed("the coordinator is shutting down".into());
+                out.notify(*id, JobUpdate::Failed("the coordinator is shutting down".into()));
+            }
+        }
+    }
+
+    /// The current update for a new watcher of `job`, if the job exists.
+    pub fn snapshot(&self, job: JobId) -> Option<JobUpdate> {
+        let j = self.jobs.get(&job)?;
+        Some(match &j.state {
+            JobState::Done => JobUpdate::Finished(j.finished.clone()?),
+            JobState::Failed(m) => JobUpdate::Failed(m.clone()),
+            JobState::Cancelled => JobUpdate::Failed("the job was cancelled".into()),
+            _ => JobUpdate::Progress {
+                done: j.done_tiles,
+                total: j.spec.geometry.tile_count(),
+                workers: 0,
+                stats: j.stats,
+            },
+        })
+    }
+
+    /// The state of a job.
+    pub fn job_state(&self, job: JobId) -> Option<&JobState> {
+        self.jobs.get(&job).map(|j| &j.state)
+    }
+
+    pub(super) fn record_failure(
+        &mut self,
+        worker: WorkerId,
+        job: JobId,
+        tile: u32,
+        message: String,
+        retryable: bool,
+        out: &mut impl Outbox,
+    ) {
+        let max_tile = self.config.max_tile_failures;
+        let Some(j) = self.jobs.get_mut(&job) else { return };
+        j.in_flight.remove(&tile);
+        let name = self
+            .workers
+            .get(&worker)
+            .map(|w| w.name.clone())
+            .unwrap_or_else(|| format!("worker {}", worker.0));
+        warn!(worker = worker.0, job = job.0, tile, %message, retryable, "tile failed");
+        let fails = j.failures.entry(tile).or_default();
+        fails.push((worker, format!("{name}: {message}")));
+        *j.worker_failures.entry(worker).or_default() += 1;
+        let distinct: HashSet<WorkerId> = fails.iter().map(|(w, _)| *w).collect();
+        if !retryable || distinct.len() >= max_tile {
+            let msgs: Vec<String> = fails.iter().map(|(_, m)| m.clone()).collect();
+            let reason = format!("tile {tile} failed: {}", msgs.join("; "));
+            self.fail(job, reason, out);
+        } else {
+            j.pending.push_front(tile);
+        }
+    }
+
+    pub(super) fn fail(&mut self, job: JobId, reason: String, out: &mut impl Outbox) {
+        let Some(j) = self.jobs.get_mut(&job) else { return };
+        warn!(job = job.0, %reason, "job failed");
+        j.state = JobState::Failed(reason.clone());
+        j.film = None;
+        j.pending.clear();
+        let holders: HashSet<WorkerId> = j.in_flight.drain().map(|(_, (w, _))| w).collect();
+        for w in holders {
+            out.cancel(w, job);
+            if let Some(wk) = self.workers.get_mut(&w) {
+                wk.in_flight.retain(|(jb, _)| *jb != job);
+            }
+            self.refresh_ready(w);
+        }
+        out.notify(job, JobUpdate::Failed(reason));
+    }
+
+    pub(super) fn finish(&mut self, job: JobId, out: &mut impl Outbox) {
+        let Some(j) = self.jobs.get_mut(&job) else { return };
+        let Some(film) = j.film.take() else { return };
+        let render_seconds = j.started.map(|s| s.elapsed().as_secs_f64()).unwrap_or(0.0);
+        let finished = std::sync::Arc::new(FinishedJob {
+            image: film.image(),
+            error: film.error_estimate(),
+            spp: j.spec.spp,
+            render_seconds,
+            stats: j.stats,
+        });
+        j.state = JobState::Done;
+        j.finished = Some(finished.clone());
+        info!(job = job.0, seconds = render_seconds, "job done");
+        out.notify(job, JobUpdate::Finished(finished));
+    }
+}

@@ -1,0 +1,96 @@
+//! The farm's scheduler: jobs, their tile queues, the workers and what each
+//! holds. It owns all of that state, is driven by one event at a time from
+//! a single loop, and never touches a socket: it reaches workers and
+//! watchers through an [`Outbox`], which tests replace with a recorder.
+//!
+//! Tiles merge into each job's film strictly in tile order (see
+//! [`crate::merge`]), so neither the number of workers, their speed, the
+//! order of results nor retries change a bit of the image.
+
+mod fill;
+mod jobs;
+mod outbox;
+#[cfg(test)]
+mod tests;
+mod workers;
+
+pub use jobs::{JobRow, JobSpec, JobState};
+pub use outbox::{Assignment, FinishedJob, JobUpdate, Outbox};
+pub use workers::WorkerRow;
+
+use farm_common::ids::{JobId, WorkerId};
+use std::collections::{BTreeMap, BTreeSet};
+use std::time::Duration;
+
+/// Knobs of the scheduler.
+#[derive(Clone, Debug)]
+pub struct SchedulerConfig {
+    /// A worker silent for this long is lost; its tiles go back to the queue.
+    pub worker_timeout: Duration,
+    /// A tile that fails on this many different workers fails its job.
+    pub max_tile_failures: usize,
+    /// A worker that fails this many tiles of a job gets no more of them.
+    pub max_worker_failures: u32,
+}
+
+impl Default for SchedulerConfig {
+    fn default() -> Self {
+        SchedulerConfig {
+            worker_timeout: Duration::from_secs(6),
+            max_tile_failures: 3,
+            max_worker_failures: 3,
+        }
+    }
+}
+
+/// The scheduler's state.
+pub struct Scheduler {
+    config: SchedulerConfig,
+    jobs: BTreeMap<JobId, jobs::Job>,
+    workers: BTreeMap<WorkerId, workers::Worker>,
+    /// Workers with a free slot: the only ones `fill` looks at, so the cost
+    /// of a result does not grow with the size of the farm.
+    ready: BTreeSet<WorkerId>,
+    next_job: u64,
+}
+
+impl Scheduler {
+    /// No jobs, no workers.
+    pub fn new(config: SchedulerConfig) -> Self {
+        Scheduler {
+            config,
+            jobs: BTreeMap::new(),
+            workers: BTreeMap::new(),
+            ready: BTreeSet::new(),
+            next_job: 1,
+        }
+    }
+
+    /// Jobs and workers for `farm status`.
+    pub fn status(&self) -> (Vec<JobRow>, Vec<WorkerRow>) {
+        let jobs = self
+            .jobs
+            .values()
+            .map(|j| JobRow {
+                id: j.id,
+                name: j.spec.name.clone(),
+                state: j.state.name(),
+                done: j.done_tiles,
+                total: j.spec.geometry.tile_count(),
+                priority: j.spec.priority,
+            })
+            .collect();
+        let workers = self
+            .workers
+            .iter()
+            .map(|(id, w)| WorkerRow {
+                id: *id,
+                name: w.name.clone(),
+                threads: w.threads,
+                in_flight: w.in_flight.len() as u32,
+                tiles_done: w.tiles_done,
+            })
+            .collect();
+        (jobs, workers)
+    }
+}

@@ -1,0 +1,69 @@
+//! The scheduler's way out, and what goes through it: tiles to workers and
+//! updates to a job's watchers.
+
+use crate::estimate::ErrorEstimate;
+use farm_common::ids::{JobId, TileId, WorkerId};
+use farm_common::image::RgbImage;
+use farm_common::stats::RayStats;
+
+/// One tile handed to a worker.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Assignment {
+    /// The job.
+    pub job: JobId,
+    /// The tile.
+    pub tile: TileId,
+    /// Earlier hand-outs of this tile.
+    pub attempt: u32,
+    /// Hash of the job's scene manifest.
+    pub scene_hash: Vec<u8>,
+    /// Samples per pixel override (0 = the scene's).
+    pub spp: u32,
+}
+
+/// What watchers of a job hear.
+#[derive(Clone, Debug, PartialEq)]
+pub enum JobUpdate {
+    /// More tiles are in.
+    Progress {
+        /// Tiles merged or waiting to merge.
+        done: u32,
+        /// All tiles.
+        total: u32,
+        /// Workers holding tiles of the job.
+        workers: u32,
+        /// Rays so far.
+        stats: RayStats,
+    },
+    /// The image is complete.
+    Finished(std::sync::Arc<FinishedJob>),
+    /// The job failed or was cancelled.
+    Failed(String),
+}
+
+/// A completed job's image and facts.
+#[derive(Clone, Debug, PartialEq)]
+pub struct FinishedJob {
+    /// The image.
+    pub image: RgbImage,
+    /// Samples per pixel.
+    pub spp: u32,
+    /// Seconds from the first assignment to the last tile.
+    pub render_seconds: f64,
+    /// Rays traced.
+    pub stats: RayStats,
+    /// The render's estimate of its own error.
+    pub error: Option<ErrorEstimate>,
+}
+
+/// The scheduler's way out: messages to workers and to a job's watchers.
+pub trait Outbox {
+    /// Send a tile to a worker.
+    fn assign(&mut self, worker: WorkerId, a: Assignment);
+    /// Tell a worker to drop a job's tiles.
+    fn cancel(&mut self, worker: WorkerId, job: JobId);
+    /// Drop the connection to a worker declared lost.
+    fn disconnect(&mut self, worker: WorkerId);
+    /// Tell a job's watchers something happened.
+    fn notify(&mut self, job: JobId, update: JobUpdate);
+}

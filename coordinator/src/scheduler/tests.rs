@@ -1,0 +1,235 @@
+//! The scheduler against a recording outbox.
+
+use super::*;
+use farm_common::film::{FilmGeometry, FilmTile};
+use farm_common::geometry::{Bounds2i, Point2i, Vec2};
+use farm_common::ids::TileId;
+use farm_common::image::RgbImage;
+use farm_common::stats::RayStats;
+use farm_common::Spectrum;
+use std::collections::HashSet;
+use std::time::{Duration, Instant};
+
+#[derive(Default)]
+struct Recorder {
+    assigned: Vec<(WorkerId, Assignment)>,
+    cancelled: Vec<(WorkerId, JobId)>,
+    disconnected: Vec<WorkerId>,
+    updates: Vec<(JobId, JobUpdate)>,
+}
+
+impl Outbox for Recorder {
+    fn assign(&mut self, worker: WorkerId, a: Assignment) {
+        self.assigned.push((worker, a));
+    }
+    fn cancel(&mut self, worker: WorkerId, job: JobId) {
+        self.cancelled.push((worker, job));
+    }
+    fn disconnect(&mut self, worker: WorkerId) {
+        self.disconnected.push(worker);
+    }
+    fn notify(&mut self, job: JobId, update: JobUpdate) {
+        self.updates.push((job, update));
+    }
+}
+
+impl Recorder {
+    fn take(&mut self) -> Vec<(WorkerId, Assignment)> {
+        std::mem::take(&mut self.assigned)
+    }
+    fn image(&self, job: JobId) -> Option<RgbImage> {
+        self.updates.iter().find_map(|(j, u)| match u {
+            JobUpdate::Finished(f) if *j == job => Some(f.image.clone()),
+            _ => None,
+        })
+    }
+    fn failure(&self, job: JobId) -> Option<String> {
+        self.updates.iter().find_map(|(j, u)| match u {
+            JobUpdate::Failed(m) if *j == job => Some(m.clone()),
+            _ => None,
+        })
+    }
+}
+
+fn geometry() -> FilmGeometry {
+    let b = Bounds2i::new(Point2i::new(0, 0), Point2i::new(50, 35));
+    FilmGeometry::new(
+        Point2i::new(50, 35),
+        b,
+        Vec2::splat(2.0),
+        1.0,
+        f32::INFINITY,
+        "x.exr".into(),
+        35.0,
+    )
+}
+
+fn spec(priority: i32) -> JobSpec {
+    JobSpec {
+        name: "t".into(),
+        priority,
+        scene_hash: vec![1; 32],
+        spp_override: 0,
+        spp: 4,
+        geometry: geometry(),
+    }
+}
+
+/// What any worker would render for a tile: depends only on the tile.
+fn render(g: &FilmGeometry, tile: TileId) -> FilmTile {
+    let mut t = FilmTile::new(g.tile_pixel_bounds(tile));
+    for p in t.pixel_bounds.iter() {
+        let v = ((p.x * 31 + p.y * 17 + tile.0 as i32 * 7) % 97) as f32 / 97.0 + 0.013;
+        t.add(p, Spectrum::new(v, v * v, 1.0 / (1.0 + v)), 0.25 + v, p.y % 2 == 0);
+    }
+    t
+}
+
+/// Completes every assignment, answering in the order `pick` chooses.
+fn drain(s: &mut Scheduler, out: &mut Recorder, mut pick: impl FnMut(usize) -> usize) {
+    let g = geometry();
+    let mut queue = out.take();
+    while !queue.is_empty() {
+        let (w, a) = queue.remove(pick(queue.len()) % queue.len());
+        s.tile_done(w, a.job, a.tile, render(&g, a.tile), RayStats::default(), out);
+        queue.extend(out.take());
+    }
+}
+
+fn reference_image() -> RgbImage {
+    let mut s = Scheduler::new(SchedulerConfig::default());
+    let mut out = Recorder::default();
+    s.worker_joined(WorkerId(1), "a".into(), 1, 1, Instant::now(), &mut out);
+    let job = s.submit(spec(0), &mut out);
+    drain(&mut s, &mut out, |_| 0);
+    out.image(job).expect("finished")
+}
+
+#[test]
+fn many_workers_in_any_order_give_the_same_bits() {
+    let reference = reference_image();
+    let mut s = Scheduler::new(SchedulerConfig::default());
+    let mut out = Recorder::default();
+    let now = Instant::now();
+    for w in 1..=4 {
+        s.worker_joined(WorkerId(w), format!("w{w}"), 2, 3, now, &mut out);
+    }
+    let job = s.submit(spec(0), &mut out);
+    let first: HashSet<WorkerId> = out.assigned.iter().map(|(w, _)| *w).collect();
+    assert_eq!(first.len(), 4, "work is spread over all workers");
+    let mut rng = farm_common::rng::Rng::new(5);
+    drain(&mut s, &mut out, |n| rng.uniform_u32_below(n as u32) as usize);
+    assert!(out.image(job) == Some(reference.clone()), "image differs");
+    assert_eq!(s.job_state(job), Some(&JobState::Done));
+}
+
+#[test]
+fn a_lost_worker_costs_a_retry_not_the_image() {
+    let reference = reference_image();
+    let mut s = Scheduler::new(SchedulerConfig::default());
+    let mut out = Recorder::default();
+    let t0 = Instant::now();
+    s.worker_joined(WorkerId(1), "good".into(), 1, 2, t0, &mut out);
+    s.worker_joined(WorkerId(2), "stalls".into(), 1, 2, t0, &mut out);
+    let job = s.submit(spec(0), &mut out);
+    let g = geometry();
+    // Worker 2 never answers; worker 1 keeps working and stays alive.
+    let mut held_by_2 = 0;
+    for _ in 0..10_000 {
+        let batch = out.take();
+        if batch.is_empty() {
+            break;
+        }
+        for (w, a) in batch {
+            if w == WorkerId(1) {
+                s.heard_from(WorkerId(1), t0 + Duration::from_secs(10));
+                s.tile_done(w, a.job, a.tile, render(&g, a.tile), RayStats::default(), &mut out);
+            } else {
+                held_by_2 += 1;
+            }
+        }
+    }
+    assert_eq!(held_by_2, 2, "the stalled worker holds its two tiles");
+    assert!(out.image(job).is_none());
+    s.tick(t0 + Duration::from_secs(10), &mut out);
+    assert_eq!(out.disconnected, vec![WorkerId(2)]);
+    drain(&mut s, &mut out, |_| 0);
+    assert!(out.image(job) == Some(reference.clone()), "image differs");
+    // A late result from the lost worker changes nothing.
+    let late = render(&g, TileId(0));
+    s.tile_done(WorkerId(2), job, TileId(0), late, RayStats::default(), &mut out);
+    assert_eq!(s.job_state(job), Some(&JobState::Done));
+}
+
+#[test]
+fn duplicates_unknown_jobs_and_bad_tiles_are_ignored() {
+    let reference = reference_image();
+    let mut s = Scheduler::new(SchedulerConfig::default());
+    let mut out = Recorder::default();
+    s.worker_joined(WorkerId(1), "a".into(), 1, 1, Instant::now(), &mut out);
+    let job = s.submit(spec(0), &mut out);
+    let g = geometry();
+    let (w, a) = out.take().remove(0);
+    s.tile_done(w, JobId(999), a.tile, render(&g, a.tile), RayStats::default(), &mut out);
+    // A tile of the wrong size is refused and retried.
+    s.tile_done(w, a.job, a.tile, render(&g, TileId(a.tile.0 + 1)), RayStats::default(), &mut out);
+    let (w, a) = out.take().remove(0);
+    s.tile_done(w, a.job, a.tile, render(&g, a.tile), RayStats::default(), &mut out);
+    s.tile_done(w, a.job, a.tile, render(&g, a.tile), RayStats::default(), &mut out);
+    drain(&mut s, &mut out, |_| 0);
+    assert!(out.image(job) == Some(reference.clone()), "image differs");
+}
+
+#[test]
+fn a_tile_failing_on_three_workers_fails_the_job_with_their_messages() {
+    let mut s = Scheduler::new(SchedulerConfig::default());
+    let mut out = Recorder::default();
+    for w in 1..=3 {
+        s.worker_joined(WorkerId(w), format!("w{w}"), 1, 1, Instant::now(), &mut out);
+    }
+    let job = s.submit(spec(0), &mut out);
+    let g = geometry();
+    for _ in 0..20 {
+        for (w, a) in out.take() {
+            if a.tile == TileId(5) {
+                s.tile_failed(w, a.job, a.tile, format!("boom on {}", w.0), true, &mut out);
+            } else {
+                s.tile_done(w, a.job, a.tile, render(&g, a.tile), RayStats::default(), &mut out);
+            }
+        }
+    }
+    let msg = out.failure(job).expect("job failed");
+    for w in 1..=3 {
+        assert!(msg.contains(&format!("boom on {w}")), "{msg}");
+    }
+    assert!(matches!(s.job_state(job), Some(JobState::Failed(_))));
+}
+
+#[test]
+fn a_worker_failing_repeatedly_gets_no_more_of_that_job() {
+    let mut s = Scheduler::new(SchedulerConfig::default());
+    let mut out = Recorder::default();
+    s.worker_joined(WorkerId(1), "flaky".into(), 1, 1, Instant::now(), &mut out);
+    let job = s.submit(spec(0), &mut out);
+    for _ in 0..3 {
+        let (w, a) = out.take().remove(0);
+        s.tile_failed(w, a.job, a.tile, "flaky".into(), true, &mut out);
+    }
+    assert!(out.take().is_empty(), "no more tiles for the flaky worker");
+    s.worker_joined(WorkerId(2), "good".into(), 1, 1, Instant::now(), &mut out);
+    drain(&mut s, &mut out, |_| 0);
+    assert!(out.image(job).is_some());
+}
+
+#[test]
+fn higher_priority_runs_first_then_submission_order() {
+    let mut s = Scheduler::new(SchedulerConfig::default());
+    let mut out = Recorder::default();
+    let low = s.submit(spec(0), &mut out);
+    let high = s.submit(spec(5), &mut out);
+    s.worker_joined(WorkerId(1), "a".into(), 1, 1, Instant::now(), &mut out);
+    assert_eq!(out.take()[0].1.job, high);
+    assert!(s.cancel(high, &mut out));
+    assert_eq!(out.cancelled, vec![(WorkerId(1), high)]);
+    assert_eq!(out.take()[0].1.job, low);
+}

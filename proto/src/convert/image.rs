@@ -1,0 +1,181 @@
+//! Finished images on the wire: rows of little-endian f32 RGB (and the
+//! per-pixel error estimate) in chunks well below the message limit, and
+//! their reassembly, each chunk checked against the image so far.
+
+use crate::error::{Error, Result};
+use crate::v1;
+use farm_common::image::RgbImage;
+use farm_common::stats::RayStats;
+
+/// Bytes of pixel rows per image event.
+pub const IMAGE_CHUNK_BYTES: usize = 8 << 20;
+
+/// What travels with a finished image.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct ImageFacts {
+    /// Samples per pixel.
+    pub spp: u32,
+    /// Seconds from the first assignment to the last tile.
+    pub render_seconds: f64,
+    /// Rays traced.
+    pub stats: RayStats,
+}
+
+/// An image put back together, with its error estimate if one was sent.
+#[derive(Clone, Debug, PartialEq)]
+pub struct AssembledImage {
+    /// The image.
+    pub image: RgbImage,
+    /// The per-pixel relMSE estimate and the image's, when the render has one.
+    pub error: Option<(Vec<f32>, f64)>,
+    /// What came with it.
+    pub facts: ImageFacts,
+}
+
+/// The chunks of rows `image` travels in. `error` is the per-pixel
+/// estimate (one value per pixel) and the image's estimate, if any.
+pub fn image_chunks(
+    image: &RgbImage,
+    error: Option<(&[f32], f64)>,
+    facts: &ImageFacts,
+) -> Vec<v1::JobImage> {
+    let (w, h) = (image.width, image.height);
+    let rows_per_chunk = (IMAGE_CHUNK_BYTES / (w * 12).max(1)).max(1);
+    (0..h.max(1))
+        .step_by(rows_per_chunk)
+        .map(|y0| {
+            let y1 = (y0 + rows_per_chunk).min(h);
+            let mut rgb = Vec::with_capacity((y1 - y0) * w * 12);
+            for p in image.pixels.get(y0 * w..y1 * w).unwrap_or_default() {
+                for c in p {
+                    rgb.extend_from_slice(&c.to_le_bytes());
+                }
+            }
+            let error_map: Vec<u8> = error
+                .and_then(|(per_pixel, _)| per_pixel.get(y0 * w..y1 * w))
+                .unwrap_or_default()
+                .iter()
+                .flat_map(|v| v.to_le_bytes())
+                .collect();
+            v1::JobImage {
+                width: w as u32,
+                height: h as u32,
+                rgb,
+                first_row: y0 as u32,
+                error_map,
+                estimated_rel_mse: error.map(|(_, e)| e),
+                spp: facts.spp,
+                render_seconds: facts.render_seconds,
+                stats: Some(v1::RayStats::from(&facts.stats)),
+            }
+        })
+        .collect()
+}
+
+/// Collects an image sent as chunks of rows.
+#[derive(Default)]
+pub struct ImageAssembler {
+    image: Option<RgbImage>,
+    error_map: Vec<f32>,
+    rows: usize,
+}
+
+/// Little-endian f32s from bytes whose length is a multiple of 4.
+fn f32s(bytes: &[u8]) -> impl Iterator<Item = f32> + '_ {
+    bytes.chunks_exact(4).map(|b| f32::from_le_bytes([b[0], b[1], b[2], b[3]]))
+}
+
+impl ImageAssembler {
+    /// Adds a chunk; returns the image once every row is in.
+    pub fn add(&mut self, img: &v1::JobImage) -> Result<Option<AssembledImage>> {
+        let (w, h) = (img.width as usize, img.height as usize);
+        let image = self.image.get_or_insert_with(|| RgbImage {
+            width: w,
+            height: h,
+            pixels: vec![[0.0; 3]; w * h],
+        });
+        let row_bytes = w * 12;
+        let rows = img.rgb.len().checked_div(row_bytes).unwrap_or(h);
+        let misfit = || Error::ImageChunk {
+            row: img.first_row,
+            bytes: img.rgb.len(),
+            width: img.width,
+            height: img.height,
+        };
+        if image.width != w
+            || image.height != h
+            || img.first_row as usize != self.rows
+            || (row_bytes > 0 && !img.rgb.len().is_multiple_of(row_bytes))
+            || (img.estimated_rel_mse.is_some() && img.error_map.len() != rows * w * 4)
+            || self.rows + rows > h
+        {
+            return Err(misfit());
+        }
+        let dst = &mut image.pixels[self.rows * w..(self.rows + rows) * w];
+        for (px, bytes) in dst.iter_mut().zip(img.rgb.chunks_exact(12)) {
+            let mut c = f32s(bytes);
+            *px = [0; 3].map(|_| c.next().unwrap_or(0.0));
+        }
+        self.error_map.extend(f32s(&img.error_map));
+        self.rows += rows;
+        if self.rows < h {
+            return Ok(None);
+        }
+        let Some(image) = self.image.take() else { return Ok(None) };
+        let error = img.estimated_rel_mse.map(|e| (std::mem::take(&mut self.error_map), e));
+        let facts = ImageFacts {
+            spp: img.spp,
+            render_seconds: img.render_seconds,
+            stats: img.stats.as_ref().map(RayStats::from).unwrap_or_default(),
+        };
+        Ok(Some(AssembledImage { image, error, facts }))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn image(w: usize, h: usize) -> RgbImage {
+        let pixels = (0..w * h).map(|i| [i as f32, 0.5 * i as f32, -(i as f32)]).collect();
+        RgbImage { width: w, height: h, pixels }
+    }
+
+    #[test]
+    fn images_round_trip_in_several_chunks_with_their_error_map() {
+        // Wide enough that one chunk holds fewer rows than the image has.
+        let w = IMAGE_CHUNK_BYTES / 12 / 3 + 1;
+        let img = image(w, 7);
+        let map: Vec<f32> = (0..w * 7).map(|i| i as f32 * 1e-3).collect();
+        let facts = ImageFacts { spp: 16, render_seconds: 1.5, stats: RayStats::default() };
+        let chunks = image_chunks(&img, Some((&map, 2e-3)), &facts);
+        assert!(chunks.len() > 1, "{} chunks", chunks.len());
+        let mut a = ImageAssembler::default();
+        let mut done = None;
+        for (i, c) in chunks.iter().enumerate() {
+            let r = a.add(c).unwrap();
+            assert_eq!(r.is_some(), i + 1 == chunks.len());
+            done = r;
+        }
+        let done = done.unwrap();
+        assert_eq!(done.image, img);
+        assert_eq!(done.error, Some((map, 2e-3)));
+        assert_eq!(done.facts, facts);
+    }
+
+    #[test]
+    fn chunks_that_do_not_continue_the_image_are_refused() {
+        let img = image(4, 3);
+        let chunks = image_chunks(&img, None, &ImageFacts::default());
+        let mut late = chunks[0].clone();
+        late.first_row = 1;
+        assert!(matches!(ImageAssembler::default().add(&late), Err(Error::ImageChunk { .. })));
+        let mut short = chunks[0].clone();
+        short.rgb.pop();
+        assert!(ImageAssembler::default().add(&short).is_err());
+        let mut tall = chunks[0].clone();
+        tall.height = 2;
+        assert!(ImageAssembler::default().add(&tall).is_err());
+        assert_eq!(ImageAssembler::default().add(&chunks[0]).unwrap().unwrap().image, img);
+    }
+}
