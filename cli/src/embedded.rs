@@ -6,7 +6,7 @@
 //! engine, whichever way a scene is rendered.
 
 use crate::error::Error;
-use farm_common::film::FilmTile;
+use farm_common::film::{FilmGeometry, FilmTile};
 use farm_common::ids::{JobId, TileId, WorkerId};
 use farm_common::image::{self, ImageMetadata, RgbImage};
 use farm_common::scene::Warning;
@@ -87,8 +87,8 @@ struct LocalResult {
 
 /// The scheduler's way out to the in-process worker: each assignment
 /// becomes a task on the render pool, taken in the order assigned.
-struct LocalOutbox {
-    renderer: Arc<Renderer>,
+struct LocalOutbox<R> {
+    render: Arc<R>,
     pool: Arc<rayon::ThreadPool>,
     results: mpsc::Sender<LocalResult>,
     /// Jobs whose queued tiles are to be dropped unrendered.
@@ -98,17 +98,20 @@ struct LocalOutbox {
     updates: Vec<JobUpdate>,
 }
 
-impl Outbox for LocalOutbox {
+impl<R> Outbox for LocalOutbox<R>
+where
+    R: Fn(TileId) -> (FilmTile, RayStats) + Send + Sync + 'static,
+{
     fn assign(&mut self, _worker: WorkerId, a: Assignment) {
         self.outstanding += 1;
-        let (renderer, results, cancelled) =
-            (self.renderer.clone(), self.results.clone(), self.cancelled.clone());
+        let (render, results, cancelled) =
+            (self.render.clone(), self.results.clone(), self.cancelled.clone());
         self.pool.spawn_fifo(move || {
             let dropped = cancelled.lock().unwrap_or_else(PoisonError::into_inner).contains(&a.job);
             let outcome = if dropped {
                 Err("the job was cancelled".to_string())
             } else {
-                catch_unwind(AssertUnwindSafe(|| renderer.render_tile(a.tile))).map_err(|p| {
+                catch_unwind(AssertUnwindSafe(|| render(a.tile))).map_err(|p| {
                     let msg = p
                         .downcast_ref::<&str>()
                         .map(|s| s.to_string())
@@ -133,14 +136,21 @@ impl Outbox for LocalOutbox {
     }
 }
 
-/// Runs one job of `renderer` through the scheduler on `threads` render
-/// threads (0 = one per core), calling `progress` as tiles merge.
-pub fn run_job(
-    renderer: Arc<Renderer>,
+/// Runs one job through the scheduler on `threads` render threads (0 = one
+/// per core): `render` renders a tile of `geometry` at `spp` samples per
+/// pixel (a [`Renderer`]'s `render_tile` in a real render). `progress` is
+/// called as tiles merge.
+pub fn run_job<R>(
+    render: R,
+    geometry: FilmGeometry,
+    spp: u32,
     name: &str,
     threads: usize,
     mut progress: impl FnMut(&Progress),
-) -> Result<Arc<FinishedJob>, Error> {
+) -> Result<Arc<FinishedJob>, Error>
+where
+    R: Fn(TileId) -> (FilmTile, RayStats) + Send + Sync + 'static,
+{
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(threads)
         .thread_name(|i| format!("farm-render-{i}"))
@@ -151,12 +161,12 @@ pub fn run_job(
         priority: 0,
         scene_hash: Vec::new(),
         spp_override: 0,
-        spp: renderer.samples_per_pixel(),
-        geometry: renderer.film.clone(),
+        spp,
+        geometry,
     };
     let (results, inbox) = mpsc::channel();
     let mut out = LocalOutbox {
-        renderer,
+        render: Arc::new(render),
         pool: Arc::new(pool),
         results,
         cancelled: Arc::default(),
@@ -223,7 +233,9 @@ pub fn render(
     let output = opts.output.clone().unwrap_or_else(|| PathBuf::from(&renderer.film.filename));
     let features = renderer.features.clone();
     let t = Instant::now();
-    let finished = run_job(Arc::new(renderer), &desc.name, opts.threads, progress)?;
+    let (geometry, spp) = (renderer.film.clone(), renderer.samples_per_pixel());
+    let render = move |tile| renderer.render_tile(tile);
+    let finished = run_job(render, geometry, spp, &desc.name, opts.threads, progress)?;
     let render_seconds = t.elapsed().as_secs_f64();
     let finished = Arc::try_unwrap(finished).unwrap_or_else(|f| (*f).clone());
     Ok(RenderSummary {
@@ -272,4 +284,62 @@ pub fn write_error_map(
     };
     image::write_image(path, &image, &meta)?;
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use farm_common::geometry::{Bounds2i, Point2i, Vec2};
+    use farm_common::Spectrum;
+    use std::sync::atomic::{AtomicU32, Ordering};
+
+    fn geometry() -> FilmGeometry {
+        let b = Bounds2i::new(Point2i::new(0, 0), Point2i::new(40, 30));
+        FilmGeometry::new(b.max, b, Vec2::splat(1.5), 1.0, f32::INFINITY, "x.exr".into(), 35.0)
+    }
+
+    /// What a worker renders for a tile: depends only on the tile.
+    fn tile(id: TileId) -> (FilmTile, RayStats) {
+        let mut t = FilmTile::new(geometry().tile_pixel_bounds(id));
+        for p in t.pixel_bounds.iter() {
+            let v = ((p.x * 13 + p.y * 7 + id.0 as i32) % 31) as f32 / 31.0;
+            t.add(p, Spectrum::new(v, 1.0 - v, 0.5), 0.5 + v, p.x % 2 == 0);
+        }
+        (t, RayStats { camera_rays: 1, ..Default::default() })
+    }
+
+    fn run(
+        render: impl Fn(TileId) -> (FilmTile, RayStats) + Send + Sync + 'static,
+    ) -> Result<Arc<FinishedJob>, Error> {
+        run_job(render, geometry(), 4, "test", 2, |_| {})
+    }
+
+    #[test]
+    fn a_tile_that_fails_once_is_retried_and_the_image_is_unchanged() {
+        let reference = run(tile).expect("clean render");
+        assert_eq!(reference.stats.camera_rays, u64::from(geometry().tile_count()));
+        let failures = AtomicU32::new(0);
+        let flaky = move |id: TileId| {
+            if id == TileId(3) && failures.fetch_add(1, Ordering::Relaxed) == 0 {
+                panic!("injected failure");
+            }
+            tile(id)
+        };
+        let retried = run(flaky).expect("a retry saves the render");
+        assert_eq!(retried.image, reference.image);
+        assert_eq!(retried.error, reference.error);
+    }
+
+    #[test]
+    fn a_tile_that_always_fails_fails_the_render_with_its_message() {
+        let broken = |id: TileId| {
+            if id == TileId(5) {
+                panic!("tile five is cursed");
+            }
+            tile(id)
+        };
+        let Err(Error::JobFailed(message)) = run(broken) else { panic!("the render should fail") };
+        assert!(message.contains("tile 5"), "{message}");
+        assert!(message.contains("tile five is cursed"), "{message}");
+    }
 }

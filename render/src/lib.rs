@@ -35,12 +35,12 @@ pub mod render;
 pub mod sampler;
 /// Warping samples to distributions.
 pub mod sampling;
-/// The renderable scene.
-pub mod scene;
 /// Geometric shapes.
 pub mod shapes;
 /// Textures.
 pub mod textures;
+/// The built scene: primitives in their BVH, materials, textures, lights.
+pub mod world;
 
 pub use error::BuildError;
 pub use render::{RenderOptions, Renderer};

@@ -9,7 +9,7 @@ use crate::features::Features;
 use crate::filters::{self, Filter};
 use crate::integrator::{RayStats, Whitted};
 use crate::sampler::{self, CameraDims, Sampler};
-use crate::scene::Scene;
+use crate::world::World;
 use farm_common::film::{FilmGeometry, FilmTile};
 use farm_common::geometry::{
     AnimatedTransform, Bounds2i, DMat4, DVec3, Point2i, RayDifferential, Transform, Vec2,
@@ -53,8 +53,8 @@ pub fn film_and_sampler(
 /// Everything needed to render any tile of one scene.
 #[derive(Debug)]
 pub struct Renderer {
-    /// The scene.
-    pub scene: Scene,
+    /// The built scene.
+    pub world: World,
     /// The camera.
     pub camera: Camera,
     /// The sampler every tile's sampler is cloned from.
@@ -137,7 +137,7 @@ impl Renderer {
             ));
         }
 
-        let scene = Scene::build(desc, render_from_world, &mut warnings)?;
+        let world = World::build(desc, render_from_world, &mut warnings)?;
         let features = Features::of(desc);
         let differentials = features.needs_differentials() || opts.all_paths;
         // Shutter time matters only if something moves, the lens point only
@@ -160,7 +160,7 @@ impl Renderer {
             }
         }
         let renderer = Renderer {
-            scene,
+            world,
             camera,
             sampler,
             film,
@@ -209,7 +209,7 @@ impl Renderer {
                 stats.camera_rays += 1;
                 let mut l = Spectrum::ZERO;
                 if weight > 0.0 {
-                    l = self.integrator.li(&ray, &self.scene, &mut sampler, 0, &mut stats);
+                    l = self.integrator.li(&ray, &self.world, &mut sampler, 0, &mut stats);
                 }
                 // Guard the film against bad radiance, as pbrt-v3 does.
                 if l.has_nan() {

@@ -27,7 +27,7 @@ fn analyse(name: &str, source: &str) -> (Features, bool) {
     std::fs::write(&path, source).expect("write");
     let (desc, _) = farm_scene::parse_file(&path).expect("parses");
     let (r, _) = Renderer::new(&desc, &RenderOptions::default()).expect("builds");
-    let built = farm_render::textures::uses_differentials(&r.scene.textures);
+    let built = farm_render::textures::uses_differentials(&r.world.textures);
     (r.features.clone(), built)
 }
 

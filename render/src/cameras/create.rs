@@ -1,48 +1,11 @@
-//! Building the scene's camera from its `Camera` directive (pbrt-v3
-//! `CreatePerspectiveCamera`, `CreateOrthographicCamera`, `MakeCamera`).
+//! The scene's camera from its `Camera` directive: the name → constructor
+//! table (pbrt-v3 `api.cpp` `MakeCamera`); each camera's constructor sits
+//! in its own file.
 
 use super::{Camera, OrthographicCamera, PerspectiveCamera};
 use farm_common::film::FilmGeometry;
-use farm_common::geometry::{AnimatedTransform, Bounds2f, Vec2};
+use farm_common::geometry::AnimatedTransform;
 use farm_common::scene::{Entity, Params, Warning};
-
-/// Parameters both projective cameras read.
-struct Common {
-    shutter_open: f32,
-    shutter_close: f32,
-    lens_radius: f32,
-    focal_distance: f32,
-    screen: Bounds2f,
-}
-
-fn common(p: &Params, entity: &Entity, film: &FilmGeometry, warnings: &mut Vec<Warning>) -> Common {
-    let mut shutter_open = p.float("shutteropen", 0.0);
-    let mut shutter_close = p.float("shutterclose", 1.0);
-    if shutter_close < shutter_open {
-        warnings.push(Warning::at(
-            &entity.loc,
-            format!("Shutter close time [{shutter_close:.6}] < shutter open [{shutter_open:.6}].  Swapping them."),
-        ));
-        std::mem::swap(&mut shutter_open, &mut shutter_close);
-    }
-    let lens_radius = p.float("lensradius", 0.0);
-    let focal_distance = p.float("focaldistance", 1e6);
-    let res = film.full_resolution;
-    let frame = p.float("frameaspectratio", res.x as f32 / res.y as f32);
-    let mut screen = if frame > 1.0 {
-        Bounds2f { min: Vec2::new(-frame, -1.0), max: Vec2::new(frame, 1.0) }
-    } else {
-        Bounds2f { min: Vec2::new(-1.0, -1.0 / frame), max: Vec2::new(1.0, 1.0 / frame) }
-    };
-    if let Some(sw) = p.floats("screenwindow") {
-        if let [x0, x1, y0, y1] = *sw {
-            screen = Bounds2f { min: Vec2::new(x0, y0), max: Vec2::new(x1, y1) };
-        } else {
-            warnings.push(Warning::at(&entity.loc, "\"screenwindow\" should have four values"));
-        }
-    }
-    Common { shutter_open, shutter_close, lens_radius, focal_distance, screen }
-}
 
 /// The camera of a `Camera` directive placed by `render_from_camera`, for
 /// a film of `film.full_resolution` pixels. Unknown or unsupported camera
@@ -65,49 +28,24 @@ pub fn create(
              the system may crash as a result of this.",
         ));
     }
-    let res = film.full_resolution;
+    let (rfc, w) = (render_from_camera, warnings);
     let camera = match entity.name.as_str() {
         "orthographic" => {
-            let c = common(&p, entity, film, warnings);
-            Camera::Orthographic(OrthographicCamera::new(
-                render_from_camera,
-                &c.screen,
-                c.shutter_open,
-                c.shutter_close,
-                c.lens_radius,
-                c.focal_distance,
-                res,
-            ))
+            Camera::Orthographic(OrthographicCamera::create(&p, entity, rfc, film, w))
         }
         name => {
             match name {
                 "perspective" => {}
-                "realistic" | "environment" => warnings.push(Warning::at(
+                "realistic" | "environment" => w.push(Warning::at(
                     &entity.loc,
                     format!("Camera \"{name}\" is not supported; using \"perspective\"."),
                 )),
-                _ => warnings.push(Warning::at(&entity.loc, format!("Camera \"{name}\" unknown."))),
+                _ => w.push(Warning::at(&entity.loc, format!("Camera \"{name}\" unknown."))),
             }
-            let c = common(&p, entity, film, warnings);
-            let mut fov = p.float("fov", 90.0);
-            let half_fov = p.float("halffov", -1.0);
-            if half_fov > 0.0 {
-                // Structure Synth exports half of the full field of view.
-                fov = 2.0 * half_fov;
-            }
-            Camera::Perspective(PerspectiveCamera::new(
-                render_from_camera,
-                &c.screen,
-                c.shutter_open,
-                c.shutter_close,
-                c.lens_radius,
-                c.focal_distance,
-                fov,
-                res,
-            ))
+            Camera::Perspective(PerspectiveCamera::create(&p, entity, rfc, film, w))
         }
     };
-    warnings.extend(p.unused_warnings());
+    w.extend(p.unused_warnings());
     camera
 }
 
@@ -115,7 +53,7 @@ pub fn create(
 mod tests {
     use super::*;
     use crate::sampling::CameraSample;
-    use farm_common::geometry::{Bounds2i, Mat4, Point2i, Transform, Vec3};
+    use farm_common::geometry::{Bounds2i, Mat4, Point2i, Transform, Vec2, Vec3};
     use farm_common::scene::{FileLoc, Param, ParamValue};
 
     fn film(w: i32, h: i32) -> FilmGeometry {

@@ -6,9 +6,11 @@
 
 use super::projective::{scale, translate, ProjectiveCamera};
 use crate::sampling::CameraSample;
+use farm_common::film::FilmGeometry;
 use farm_common::geometry::{
     AnimatedTransform, Bounds2f, Point2i, Ray, RayDifferential, Transform, Vec3,
 };
+use farm_common::scene::{Entity, Params, Warning};
 
 /// A camera with parallel rays along +z, optionally through a thin lens.
 #[derive(Clone, Debug)]
@@ -94,6 +96,28 @@ impl OrthographicCamera {
         rd.ray.time = b.time(s.time);
         rd.has_differentials = true;
         (1.0, b.render_from_camera.ray_differential(&rd))
+    }
+}
+
+impl OrthographicCamera {
+    /// A `Camera "orthographic"` (pbrt-v3 `CreateOrthographicCamera`).
+    pub(super) fn create(
+        p: &Params,
+        entity: &Entity,
+        render_from_camera: AnimatedTransform,
+        film: &FilmGeometry,
+        warnings: &mut Vec<Warning>,
+    ) -> Self {
+        let c = super::projective::common(p, entity, film, warnings);
+        OrthographicCamera::new(
+            render_from_camera,
+            &c.screen,
+            c.shutter_open,
+            c.shutter_close,
+            c.lens_radius,
+            c.focal_distance,
+            film.full_resolution,
+        )
     }
 }
 

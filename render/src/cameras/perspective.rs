@@ -6,9 +6,11 @@
 
 use super::projective::{scale, ProjectiveCamera};
 use crate::sampling::CameraSample;
+use farm_common::film::FilmGeometry;
 use farm_common::geometry::{
     AnimatedTransform, Bounds2f, Mat4, Point2i, Ray, RayDifferential, Transform, Vec3, Vec4,
 };
+use farm_common::scene::{Entity, Params, Warning};
 
 /// A pinhole or thin-lens camera with perspective projection.
 #[derive(Clone, Debug)]
@@ -109,6 +111,35 @@ impl PerspectiveCamera {
         rd.ray.time = b.time(s.time);
         rd.has_differentials = true;
         (1.0, b.render_from_camera.ray_differential(&rd))
+    }
+}
+
+impl PerspectiveCamera {
+    /// A `Camera "perspective"` (pbrt-v3 `CreatePerspectiveCamera`).
+    pub(super) fn create(
+        p: &Params,
+        entity: &Entity,
+        render_from_camera: AnimatedTransform,
+        film: &FilmGeometry,
+        warnings: &mut Vec<Warning>,
+    ) -> Self {
+        let c = super::projective::common(p, entity, film, warnings);
+        let mut fov = p.float("fov", 90.0);
+        let half_fov = p.float("halffov", -1.0);
+        if half_fov > 0.0 {
+            // Structure Synth exports half of the full field of view.
+            fov = 2.0 * half_fov;
+        }
+        PerspectiveCamera::new(
+            render_from_camera,
+            &c.screen,
+            c.shutter_open,
+            c.shutter_close,
+            c.lens_radius,
+            c.focal_distance,
+            fov,
+            film.full_resolution,
+        )
     }
 }
 

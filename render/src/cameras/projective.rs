@@ -3,9 +3,11 @@
 //! the thin lens and the shutter.
 
 use crate::sampling::concentric_sample_disk;
+use farm_common::film::FilmGeometry;
 use farm_common::geometry::{
     AnimatedTransform, Bounds2f, Mat4, Point2i, Ray, Transform, Vec2, Vec3,
 };
+use farm_common::scene::{Entity, Params, Warning};
 
 /// A camera whose rays come from a projection of the film onto a screen window.
 #[derive(Clone, Debug)]
@@ -89,4 +91,49 @@ impl ProjectiveCamera {
         ray.o = self.lens_point(u);
         ray.d = (p_focus - ray.o).normalize();
     }
+}
+
+/// Parameters both projective cameras read.
+pub(super) struct Common {
+    pub(super) shutter_open: f32,
+    pub(super) shutter_close: f32,
+    pub(super) lens_radius: f32,
+    pub(super) focal_distance: f32,
+    pub(super) screen: Bounds2f,
+}
+
+/// Reads the parameters every projective camera takes (pbrt-v3's
+/// shutter, lens and screen-window set-up in `Create*Camera`).
+pub(super) fn common(
+    p: &Params,
+    entity: &Entity,
+    film: &FilmGeometry,
+    warnings: &mut Vec<Warning>,
+) -> Common {
+    let mut shutter_open = p.float("shutteropen", 0.0);
+    let mut shutter_close = p.float("shutterclose", 1.0);
+    if shutter_close < shutter_open {
+        warnings.push(Warning::at(
+            &entity.loc,
+            format!("Shutter close time [{shutter_close:.6}] < shutter open [{shutter_open:.6}].  Swapping them."),
+        ));
+        std::mem::swap(&mut shutter_open, &mut shutter_close);
+    }
+    let lens_radius = p.float("lensradius", 0.0);
+    let focal_distance = p.float("focaldistance", 1e6);
+    let res = film.full_resolution;
+    let frame = p.float("frameaspectratio", res.x as f32 / res.y as f32);
+    let mut screen = if frame > 1.0 {
+        Bounds2f { min: Vec2::new(-frame, -1.0), max: Vec2::new(frame, 1.0) }
+    } else {
+        Bounds2f { min: Vec2::new(-1.0, -1.0 / frame), max: Vec2::new(1.0, 1.0 / frame) }
+    };
+    if let Some(sw) = p.floats("screenwindow") {
+        if let [x0, x1, y0, y1] = *sw {
+            screen = Bounds2f { min: Vec2::new(x0, y0), max: Vec2::new(x1, y1) };
+        } else {
+            warnings.push(Warning::at(&entity.loc, "\"screenwindow\" should have four values"));
+        }
+    }
+    Common { shutter_open, shutter_close, lens_radius, focal_distance, screen }
 }

@@ -8,7 +8,7 @@ use crate::bxdf::{Bsdf, BsdfSample, BxDFType, TransportMode};
 use crate::interaction::SurfaceInteraction;
 use crate::primitive::Hit;
 use crate::sampler::Sampler;
-use crate::scene::Scene;
+use crate::world::World;
 use farm_common::geometry::RayDifferential;
 pub use farm_common::stats::RayStats;
 use farm_common::Spectrum;
@@ -25,7 +25,7 @@ impl Whitted {
     pub fn li(
         &self,
         ray: &RayDifferential,
-        scene: &Scene,
+        scene: &World,
         sampler: &mut Sampler,
         depth: u32,
         stats: &mut RayStats,
@@ -95,7 +95,7 @@ impl Whitted {
         ray: &RayDifferential,
         si: &SurfaceInteraction,
         bsdf: &Bsdf,
-        scene: &Scene,
+        scene: &World,
         sampler: &mut Sampler,
         depth: u32,
         stats: &mut RayStats,
@@ -131,7 +131,7 @@ impl Whitted {
         ray: &RayDifferential,
         si: &SurfaceInteraction,
         bsdf: &Bsdf,
-        scene: &Scene,
+        scene: &World,
         sampler: &mut Sampler,
         depth: u32,
         stats: &mut RayStats,

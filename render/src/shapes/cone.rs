@@ -6,6 +6,7 @@ use super::efloat::{
 };
 use crate::interaction::SurfaceInteraction;
 use farm_common::geometry::{Bounds3f, Ray, Vec2, Vec3};
+use farm_common::scene::Params;
 
 /// A cone with its base of `radius` at z = 0 and apex at z = `height`.
 #[derive(Clone, Debug)]
@@ -18,6 +19,15 @@ pub struct Cone {
     pub height: f32,
     /// Largest φ, in radians.
     pub phi_max: f32,
+}
+
+impl Cone {
+    /// A `Shape "cone"` (pbrt-v3 `CreateConeShape`).
+    pub fn create(params: &Params, pl: Placement) -> Self {
+        let f = |n: &str, d: f32| params.float(n, d);
+        let (radius, height) = (f("radius", 1.0), f("height", 1.0));
+        Cone::new(pl, height, radius, f("phimax", 360.0))
+    }
 }
 
 impl Cone {

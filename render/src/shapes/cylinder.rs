@@ -4,6 +4,7 @@
 use super::efloat::{nearest_hit, phi_of, quadratic, weingarten, EFloat, Placement};
 use crate::interaction::{Interaction, SurfaceInteraction};
 use farm_common::geometry::{gamma, Bounds3f, Ray, Vec2, Vec3};
+use farm_common::scene::Params;
 
 /// A cylinder of `radius` between `z_min` and `z_max`, open at both ends.
 #[derive(Clone, Debug)]
@@ -18,6 +19,15 @@ pub struct Cylinder {
     pub z_max: f32,
     /// Largest φ, in radians.
     pub phi_max: f32,
+}
+
+impl Cylinder {
+    /// A `Shape "cylinder"` (pbrt-v3 `CreateCylinderShape`).
+    pub fn create(params: &Params, pl: Placement) -> Self {
+        let f = |n: &str, d: f32| params.float(n, d);
+        let (radius, zmin, zmax) = (f("radius", 1.0), f("zmin", -1.0), f("zmax", 1.0));
+        Cylinder::new(pl, radius, zmin, zmax, f("phimax", 360.0))
+    }
 }
 
 impl Cylinder {

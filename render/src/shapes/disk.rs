@@ -5,6 +5,7 @@ use super::efloat::{phi_of, Placement};
 use crate::interaction::{Interaction, SurfaceInteraction};
 use crate::sampling::concentric_sample_disk;
 use farm_common::geometry::{Bounds3f, Ray, Vec2, Vec3};
+use farm_common::scene::Params;
 
 /// A disk (or annulus) at `z = height`, facing +z.
 #[derive(Clone, Debug)]
@@ -19,6 +20,15 @@ pub struct Disk {
     pub inner_radius: f32,
     /// Largest φ, in radians.
     pub phi_max: f32,
+}
+
+impl Disk {
+    /// A `Shape "disk"` (pbrt-v3 `CreateDiskShape`).
+    pub fn create(params: &Params, pl: Placement) -> Self {
+        let f = |n: &str, d: f32| params.float(n, d);
+        let (height, radius, inner) = (f("height", 0.0), f("radius", 1.0), f("innerradius", 0.0));
+        Disk::new(pl, height, radius, inner, f("phimax", 360.0))
+    }
 }
 
 impl Disk {

@@ -6,6 +6,7 @@ use super::efloat::{
 };
 use crate::interaction::SurfaceInteraction;
 use farm_common::geometry::{Bounds3f, Ray, Vec2, Vec3};
+use farm_common::scene::{Params, Warning};
 
 /// The surface swept by rotating segment `p1`–`p2` about z.
 #[derive(Clone, Debug)]
@@ -28,6 +29,24 @@ pub struct Hyperboloid {
     pub ah: f32,
     /// Implicit coefficient of z².
     pub ch: f32,
+}
+
+impl Hyperboloid {
+    /// A `Shape "hyperboloid"` (pbrt-v3 `CreateHyperboloidShape`); a
+    /// degenerate one is a warning and no shape.
+    pub fn create(params: &Params, pl: Placement, warnings: &mut Vec<Warning>) -> Option<Self> {
+        let p1 = params.point3("p1", Vec3::ZERO);
+        let p2 = params.point3("p2", Vec3::ONE);
+        let h = Hyperboloid::new(pl, p1, p2, params.float("phimax", 360.0));
+        if h.is_none() {
+            warnings.push(Warning {
+                loc: None,
+                message: "Degenerate hyperboloid: cannot compute its implicit form. Ignoring."
+                    .into(),
+            });
+        }
+        h
+    }
 }
 
 impl Hyperboloid {

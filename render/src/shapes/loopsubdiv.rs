@@ -3,7 +3,10 @@
 //! The control mesh is refined `levels` times, its vertices pushed to the
 //! limit surface, and the result is a triangle mesh with limit normals.
 
+use super::mesh::{build_mesh, warn, MeshData};
+use super::{Placement, Shape};
 use farm_common::geometry::Vec3;
+use farm_common::scene::{Params, Warning};
 use std::collections::HashMap;
 use std::f32::consts::PI;
 
@@ -385,4 +388,68 @@ fn refine(lv: &mut Level, ring: &mut Vec<Vec3>) -> Topo<Level> {
         }
     }
     Ok(nl)
+}
+
+/// The triangles of a `Shape "loopsubdiv"` (pbrt-v3 `CreateLoopSubdiv`):
+/// the control mesh subdivided `levels` times.
+pub(super) fn create(params: &Params, pl: &Placement, warnings: &mut Vec<Warning>) -> Vec<Shape> {
+    let nlevels = params.int("nlevels", 3);
+    let mut levels = params.int("levels", nlevels);
+    let vi = params.ints("indices");
+    let p = params.point3s("P");
+    let _scheme = params.string("scheme", "loop");
+    let Some(vi) = vi else {
+        warn(warnings, "Vertex indices \"indices\" not provided for LoopSubdiv shape.".into());
+        return vec![];
+    };
+    let Some(p) = p else {
+        warn(warnings, "Vertex positions \"P\" not provided for LoopSubdiv shape.".into());
+        return vec![];
+    };
+    if !(0..=10).contains(&levels) {
+        warn(warnings, format!("LoopSubdiv \"levels\" {levels} out of range [0, 10]; clamping."));
+        levels = levels.clamp(0, 10);
+    }
+    let nf = vi.len() / 3;
+    let vi = &vi[..nf * 3];
+    if vi.iter().any(|&i| i < 0 || i as usize >= p.len()) {
+        warn(
+            warnings,
+            format!(
+                "loopsubdiv has out of-bounds vertex index ({} \"P\" values were given). Discarding.",
+                p.len()
+            ),
+        );
+        return vec![];
+    }
+    if p.iter().any(|q| q.iter().any(|c| !c.is_finite())) {
+        warn(warnings, "loopsubdiv has non-finite vertex positions. Discarding.".into());
+        return vec![];
+    }
+    // Drop vertices no face uses (pbrt-v3 would crash on them).
+    let mut remap = vec![u32::MAX; p.len()];
+    let mut pts = Vec::new();
+    let indices: Vec<u32> = vi
+        .iter()
+        .map(|&i| {
+            let r = &mut remap[i as usize];
+            if *r == u32::MAX {
+                *r = pts.len() as u32;
+                pts.push(Vec3::from(p[i as usize]));
+            }
+            *r
+        })
+        .collect();
+    match loop_subdivide(levels as u32, &indices, &pts) {
+        Ok((indices, p, n)) => build_mesh(
+            "loopsubdiv",
+            MeshData { indices, p, n: Some(n), ..Default::default() },
+            pl,
+            warnings,
+        ),
+        Err(e) => {
+            warn(warnings, format!("loopsubdiv: {e}; the mesh is ignored."));
+            vec![]
+        }
+    }
 }

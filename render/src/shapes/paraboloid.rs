@@ -6,6 +6,7 @@ use super::efloat::{
 };
 use crate::interaction::SurfaceInteraction;
 use farm_common::geometry::{Bounds3f, Ray, Vec2, Vec3};
+use farm_common::scene::Params;
 
 /// The paraboloid `z = zmax (x² + y²) / radius²`, clipped in z and φ.
 #[derive(Clone, Debug)]
@@ -20,6 +21,15 @@ pub struct Paraboloid {
     pub z_max: f32,
     /// Largest φ, in radians.
     pub phi_max: f32,
+}
+
+impl Paraboloid {
+    /// A `Shape "paraboloid"` (pbrt-v3 `CreateParaboloidShape`).
+    pub fn create(params: &Params, pl: Placement) -> Self {
+        let f = |n: &str, d: f32| params.float(n, d);
+        let (radius, zmin, zmax) = (f("radius", 1.0), f("zmin", 0.0), f("zmax", 1.0));
+        Paraboloid::new(pl, radius, zmin, zmax, f("phimax", 360.0))
+    }
 }
 
 impl Paraboloid {

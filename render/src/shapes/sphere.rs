@@ -9,6 +9,7 @@ use crate::sampling::uniform_sample_sphere;
 use farm_common::geometry::{
     coordinate_system, gamma, offset_ray_origin, spherical_direction, Bounds3f, Ray, Vec2, Vec3,
 };
+use farm_common::scene::Params;
 use std::f32::consts::PI;
 
 /// A sphere of `radius` around the object-space origin, clipped in z and φ.
@@ -28,6 +29,17 @@ pub struct Sphere {
     pub theta_max: f32,
     /// Largest φ, in radians.
     pub phi_max: f32,
+}
+
+impl Sphere {
+    /// A `Shape "sphere"` with pbrt-v3's parameters and defaults
+    /// (`CreateSphereShape`).
+    pub fn create(params: &Params, pl: Placement) -> Self {
+        let f = |n: &str, d: f32| params.float(n, d);
+        let radius = f("radius", 1.0);
+        let (zmin, zmax) = (f("zmin", -radius), f("zmax", radius));
+        Sphere::new(pl, radius, zmin, zmax, f("phimax", 360.0))
+    }
 }
 
 impl Sphere {

@@ -4,6 +4,7 @@
 
 use crate::interaction::SurfaceInteraction;
 use farm_common::geometry::{Transform, Vec2, Vec3};
+use farm_common::scene::{FileLoc, Params, Warning};
 use std::f32::consts::PI;
 
 /// (s, t) and its screen-space derivatives.
@@ -131,5 +132,46 @@ impl Mapping3D {
     /// (p, ∂p/∂x, ∂p/∂y) in texture space.
     pub fn map(&self, si: &SurfaceInteraction) -> (Vec3, Vec3, Vec3) {
         (self.xf.point(si.p()), self.xf.vector(si.dpdx), self.xf.vector(si.dpdy))
+    }
+}
+
+/// Where textures map points: render space to each mapping's space.
+pub(super) struct Spaces {
+    pub(super) texture_from_render: Transform,
+    pub(super) world_from_render: Transform,
+    /// pbrt-v3 hands `tex2world` to `IdentityMapping3D` as its world-to-texture transform.
+    pub(super) solid_from_render: Transform,
+}
+
+impl Mapping2D {
+    /// The `"string mapping"` of a 2D texture with its parameters (pbrt-v3
+    /// `TextureParams` mapping set-up in each `Create*Texture`).
+    pub(super) fn create(
+        p: &Params,
+        sp: &Spaces,
+        loc: &FileLoc,
+        w: &mut Vec<Warning>,
+    ) -> Mapping2D {
+        match p.string("mapping", "uv").as_str() {
+            "uv" => Mapping2D::Uv {
+                su: p.float("uscale", 1.0),
+                sv: p.float("vscale", 1.0),
+                du: p.float("udelta", 0.0),
+                dv: p.float("vdelta", 0.0),
+            },
+            "spherical" => Mapping2D::Spherical { texture_from_render: sp.texture_from_render },
+            "cylindrical" => Mapping2D::Cylindrical { texture_from_render: sp.texture_from_render },
+            "planar" => Mapping2D::Planar {
+                vs: p.vector3("v1", Vec3::X),
+                vt: p.vector3("v2", Vec3::Y),
+                ds: p.float("udelta", 0.0),
+                dt: p.float("vdelta", 0.0),
+                world_from_render: sp.world_from_render,
+            },
+            other => {
+                w.push(Warning::at(loc, format!("2D texture mapping \"{other}\" unknown")));
+                Mapping2D::UV
+            }
+        }
     }
 }

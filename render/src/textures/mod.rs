@@ -11,12 +11,12 @@ mod imagemap;
 mod mapping;
 mod mix;
 mod noise;
+mod resolve;
 mod scale;
 mod uv;
 
 pub use bilerp::Bilerp;
 pub use checkerboard::{AaMode, Checkerboard2D, Checkerboard3D};
-pub(crate) use create::Resolver;
 pub use create::{build, uses_differentials};
 pub use dots::Dots;
 pub use fbm::{Fbm, Windy, Wrinkled};
@@ -24,6 +24,7 @@ pub use imagemap::ImageMap;
 pub use mapping::{Mapping2D, Mapping3D};
 pub use mix::Mix;
 pub use noise::{fbm as fbm_noise, noise, turbulence};
+pub(crate) use resolve::Resolver;
 pub use scale::Scale;
 pub use uv::UvTexture;
 

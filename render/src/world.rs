@@ -1,4 +1,4 @@
-//! The renderable scene, built from a `SceneDescription` in a camera-centred
+//! The world: the renderable scene, built from a `SceneDescription` in a camera-centred
 //! render space (pbrt-v4's approach): everything is translated so the camera
 //! sits at the origin, which keeps float precision where the image is made
 //! even when the scene lies far from the world origin.
@@ -18,7 +18,7 @@ use std::sync::Arc;
 
 /// Geometry, lights and materials, ready for rays.
 #[derive(Debug)]
-pub struct Scene {
+pub struct World {
     /// Primitives outside instances.
     pub aggregate: Aggregate,
     /// Object instances and moving shapes.
@@ -36,13 +36,13 @@ pub struct Scene {
     pub render_from_world: Transform,
 }
 
-impl Scene {
+impl World {
     /// Builds the scene; `render_from_world` comes from the camera.
     pub fn build(
         desc: &SceneDescription,
         render_from_world: DMat4,
         warnings: &mut Vec<Warning>,
-    ) -> Result<Scene, BuildError> {
+    ) -> Result<World, BuildError> {
         let rfw = Transform::from_dmat4(render_from_world);
         let textures = textures::build(&desc.textures, &rfw, &desc.assets, warnings);
         let materials = materials::build(&desc.materials, &textures, warnings);
@@ -134,7 +134,7 @@ impl Scene {
         for l in &mut lights {
             l.preprocess(center, radius);
         }
-        Ok(Scene {
+        Ok(World {
             aggregate,
             instances,
             instance_bvh,
