@@ -200,13 +200,11 @@ pub fn sample_count(
     let n = match kind {
         SamplerKind::ZeroTwoSequence => {
             let n = pixel_samples(16);
-            if !is_power_of_2(n) {
-                warn(format!(
-                    "Pixel samples being rounded up to power of 2 (from {n} to {}).",
-                    round_up_pow2(n)
-                ));
+            let up = round_up_pow2(n);
+            if n != up {
+                warn(format!("Pixel samples being rounded up to power of 2 (from {n} to {up})."));
             }
-            round_up_pow2(n)
+            up
         }
         SamplerKind::MaxMinDist => {
             let mut n = pixel_samples(4);
@@ -226,13 +224,11 @@ pub fn sample_count(
         }
         SamplerKind::Sobol => {
             let n = pixel_samples(16);
-            if !is_power_of_2(n) {
-                warn(format!(
-                    "Non power-of-two sample count rounded up to {} for SobolSampler.",
-                    round_up_pow2(n)
-                ));
+            let up = round_up_pow2(n);
+            if n != up {
+                warn(format!("Non power-of-two sample count rounded up to {up} for SobolSampler."));
             }
-            round_up_pow2(n)
+            up
         }
         SamplerKind::Random => pixel_samples(4),
         SamplerKind::Halton => pixel_samples(16),

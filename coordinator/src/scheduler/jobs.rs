@@ -226,17 +226,7 @@ impl Scheduler {
         if !j.state.is_active() {
             return false;
         }
-        j.state = JobState::Cancelled;
-        j.film = None;
-        j.pending.clear();
-        let holders: HashSet<WorkerId> = j.in_flight.drain().map(|(_, (w, _))| w).collect();
-        for w in holders {
-            out.cancel(w, job);
-            if let Some(wk) = self.workers.get_mut(&w) {
-                wk.in_flight.retain(|(jb, _)| *jb != job);
-            }
-            self.refresh_ready(w);
-        }
+        self.stop(job, JobState::Cancelled, out);
         info!(job = job.0, "job cancelled");
         out.notify(job, JobUpdate::Failed("the job was cancelled".into()));
         self.fill(out);
@@ -317,9 +307,19 @@ impl Scheduler {
     }
 
     pub(super) fn fail(&mut self, job: JobId, reason: String, out: &mut impl Outbox) {
-        let Some(j) = self.jobs.get_mut(&job) else { return };
+        if !self.jobs.contains_key(&job) {
+            return;
+        }
         warn!(job = job.0, %reason, "job failed");
-        j.state = JobState::Failed(reason.clone());
+        self.stop(job, JobState::Failed(reason.clone()), out);
+        out.notify(job, JobUpdate::Failed(reason));
+    }
+
+    /// Ends an active job in `state`: its film and queue are dropped and
+    /// the workers holding its tiles are told to drop them.
+    fn stop(&mut self, job: JobId, state: JobState, out: &mut impl Outbox) {
+        let Some(j) = self.jobs.get_mut(&job) else { return };
+        j.state = state;
         j.film = None;
         j.pending.clear();
         let holders: HashSet<WorkerId> = j.in_flight.drain().map(|(_, (w, _))| w).collect();
@@ -330,7 +330,6 @@ impl Scheduler {
             }
             self.refresh_ready(w);
         }
-        out.notify(job, JobUpdate::Failed(reason));
     }
 
     pub(super) fn finish(&mut self, job: JobId, out: &mut impl Outbox) {

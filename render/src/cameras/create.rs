@@ -2,6 +2,7 @@
 //! table (pbrt-v3 `api.cpp` `MakeCamera`); each camera's constructor sits
 //! in its own file.
 
+use super::projective::common;
 use super::{Camera, OrthographicCamera, PerspectiveCamera};
 use farm_common::film::FilmGeometry;
 use farm_common::geometry::AnimatedTransform;
@@ -28,24 +29,22 @@ pub fn create(
              the system may crash as a result of this.",
         ));
     }
-    let (rfc, w) = (render_from_camera, warnings);
-    let camera = match entity.name.as_str() {
-        "orthographic" => {
-            Camera::Orthographic(OrthographicCamera::create(&p, entity, rfc, film, w))
-        }
-        name => {
-            match name {
-                "perspective" => {}
-                "realistic" | "environment" => w.push(Warning::at(
-                    &entity.loc,
-                    format!("Camera \"{name}\" is not supported; using \"perspective\"."),
-                )),
-                _ => w.push(Warning::at(&entity.loc, format!("Camera \"{name}\" unknown."))),
-            }
-            Camera::Perspective(PerspectiveCamera::create(&p, entity, rfc, film, w))
-        }
+    let name = entity.name.as_str();
+    match name {
+        "perspective" | "orthographic" => {}
+        "realistic" | "environment" => warnings.push(Warning::at(
+            &entity.loc,
+            format!("Camera \"{name}\" is not supported; using \"perspective\"."),
+        )),
+        _ => warnings.push(Warning::at(&entity.loc, format!("Camera \"{name}\" unknown."))),
+    }
+    let c = common(&p, entity, film, warnings);
+    let (rfc, res) = (render_from_camera, film.full_resolution);
+    let camera = match name {
+        "orthographic" => Camera::Orthographic(OrthographicCamera::create(rfc, &c, res)),
+        _ => Camera::Perspective(PerspectiveCamera::create(&p, rfc, &c, res)),
     };
-    w.extend(p.unused_warnings());
+    warnings.extend(p.unused_warnings());
     camera
 }
 

@@ -4,13 +4,11 @@
 //! Camera "orthographic" "float screenwindow" [-2 2 -1.5 1.5]
 //! ```
 
-use super::projective::{scale, translate, ProjectiveCamera};
+use super::projective::{scale, translate, Common, ProjectiveCamera};
 use crate::sampling::CameraSample;
-use farm_common::film::FilmGeometry;
 use farm_common::geometry::{
     AnimatedTransform, Bounds2f, Point2i, Ray, RayDifferential, Transform, Vec3,
 };
-use farm_common::scene::{Entity, Params, Warning};
 
 /// A camera with parallel rays along +z, optionally through a thin lens.
 #[derive(Clone, Debug)]
@@ -100,24 +98,11 @@ impl OrthographicCamera {
 }
 
 impl OrthographicCamera {
-    /// A `Camera "orthographic"` (pbrt-v3 `CreateOrthographicCamera`).
-    pub(super) fn create(
-        p: &Params,
-        entity: &Entity,
-        render_from_camera: AnimatedTransform,
-        film: &FilmGeometry,
-        warnings: &mut Vec<Warning>,
-    ) -> Self {
-        let c = super::projective::common(p, entity, film, warnings);
-        OrthographicCamera::new(
-            render_from_camera,
-            &c.screen,
-            c.shutter_open,
-            c.shutter_close,
-            c.lens_radius,
-            c.focal_distance,
-            film.full_resolution,
-        )
+    /// A `Camera "orthographic"` (pbrt-v3 `CreateOrthographicCamera`): it
+    /// reads only the parameters every projective camera does.
+    pub(super) fn create(rfc: AnimatedTransform, c: &Common, res: Point2i) -> Self {
+        let (open, close) = (c.shutter_open, c.shutter_close);
+        OrthographicCamera::new(rfc, &c.screen, open, close, c.lens_radius, c.focal_distance, res)
     }
 }
 

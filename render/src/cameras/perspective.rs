@@ -4,13 +4,12 @@
 //! Camera "perspective" "float fov" 45 "float lensradius" 0.1 "float focaldistance" 5
 //! ```
 
-use super::projective::{scale, ProjectiveCamera};
+use super::projective::{scale, Common, ProjectiveCamera};
 use crate::sampling::CameraSample;
-use farm_common::film::FilmGeometry;
 use farm_common::geometry::{
     AnimatedTransform, Bounds2f, Mat4, Point2i, Ray, RayDifferential, Transform, Vec3, Vec4,
 };
-use farm_common::scene::{Entity, Params, Warning};
+use farm_common::scene::Params;
 
 /// A pinhole or thin-lens camera with perspective projection.
 #[derive(Clone, Debug)]
@@ -115,31 +114,18 @@ impl PerspectiveCamera {
 }
 
 impl PerspectiveCamera {
-    /// A `Camera "perspective"` (pbrt-v3 `CreatePerspectiveCamera`).
-    pub(super) fn create(
-        p: &Params,
-        entity: &Entity,
-        render_from_camera: AnimatedTransform,
-        film: &FilmGeometry,
-        warnings: &mut Vec<Warning>,
-    ) -> Self {
-        let c = super::projective::common(p, entity, film, warnings);
+    /// A `Camera "perspective"` (pbrt-v3 `CreatePerspectiveCamera`): the
+    /// projective camera's parameters `c`, and `fov` or `halffov` from `p`.
+    pub(super) fn create(p: &Params, rfc: AnimatedTransform, c: &Common, res: Point2i) -> Self {
         let mut fov = p.float("fov", 90.0);
         let half_fov = p.float("halffov", -1.0);
         if half_fov > 0.0 {
             // Structure Synth exports half of the full field of view.
             fov = 2.0 * half_fov;
         }
-        PerspectiveCamera::new(
-            render_from_camera,
-            &c.screen,
-            c.shutter_open,
-            c.shutter_close,
-            c.lens_radius,
-            c.focal_distance,
-            fov,
-            film.full_resolution,
-        )
+        let (open, close) = (c.shutter_open, c.shutter_close);
+        let (lens, focus) = (c.lens_radius, c.focal_distance);
+        PerspectiveCamera::new(rfc, &c.screen, open, close, lens, focus, fov, res)
     }
 }
 
