@@ -93,6 +93,29 @@ impl Parser {
             "ReverseOrientation" => b.reverse_orientation(&loc),
             "ObjectEnd" => b.object_end(&loc),
             "Identity" => b.ctm.update(|_| glam::DMat4::IDENTITY),
+            "ActiveTransform" | "Translate" | "Scale" | "Rotate" | "LookAt" | "Transform"
+            | "ConcatTransform" | "TransformTimes" => self.transform_directive(t, &tok, &loc)?,
+            "CoordinateSystem" | "CoordSysTransform" | "NamedMaterial" | "ObjectBegin"
+            | "ObjectInstance" | "MediumInterface" | "Include" => {
+                self.named_directive(t, &tok, &loc, dir)?
+            }
+            "Camera" | "Sampler" | "Film" | "PixelFilter" | "Integrator" | "Accelerator"
+            | "Shape" | "Material" | "LightSource" | "AreaLightSource" | "MakeNamedMaterial"
+            | "MakeNamedMedium" | "Texture" => self.entity_directive(t, &tok, loc, dir)?,
+            other => return Err(SceneError::UnknownDirective { loc, name: other.to_string() }),
+        }
+        Ok(())
+    }
+
+    /// The directives that change the current transformation.
+    fn transform_directive(
+        &mut self,
+        t: &mut Tokenizer<'_>,
+        tok: &Token<'_>,
+        loc: &FileLoc,
+    ) -> Result<()> {
+        let loc = loc.clone();
+        match tok.text.as_ref() {
             "ActiveTransform" => {
                 let a = self.word(t, &loc, "ActiveTransform")?;
                 self.builder.ctm.active = match a.text.as_ref() {
@@ -147,6 +170,22 @@ impl Parser {
                 let v = self.numbers::<2>(t, &loc, "TransformTimes")?;
                 self.builder.transform_times(v[0] as f32, v[1] as f32, &loc);
             }
+            other => return Err(SceneError::UnknownDirective { loc, name: other.to_string() }),
+        }
+        Ok(())
+    }
+
+    /// The directives that take names: coordinate systems, named
+    /// materials, objects, media and `Include`.
+    fn named_directive(
+        &mut self,
+        t: &mut Tokenizer<'_>,
+        tok: &Token<'_>,
+        loc: &FileLoc,
+        dir: &Path,
+    ) -> Result<()> {
+        let loc = loc.clone();
+        match tok.text.as_ref() {
             "CoordinateSystem" => {
                 let n = self.string(t, &loc, "CoordinateSystem")?;
                 self.builder.coordinate_system(&n);
@@ -181,6 +220,20 @@ impl Parser {
                 let n = self.string(t, &loc, "Include")?;
                 self.include(&n, &loc, dir)?;
             }
+            other => return Err(SceneError::UnknownDirective { loc, name: other.to_string() }),
+        }
+        Ok(())
+    }
+
+    /// The directives that declare an entity with a parameter list.
+    fn entity_directive(
+        &mut self,
+        t: &mut Tokenizer<'_>,
+        tok: &Token<'_>,
+        loc: FileLoc,
+        dir: &Path,
+    ) -> Result<()> {
+        match tok.text.as_ref() {
             "Camera" | "Sampler" | "Film" | "PixelFilter" | "Integrator" | "Accelerator" => {
                 let e = self.entity(t, loc, &tok.text, dir)?;
                 self.builder.option(&tok.text, e);

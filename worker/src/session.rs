@@ -13,7 +13,8 @@ use farm_proto::v1::coordinator_client::CoordinatorClient;
 use farm_proto::v1::coordinator_message::Kind as FromCoordinator;
 use farm_proto::v1::worker_message::Kind as ToCoordinator;
 use farm_proto::v1::{
-    Heartbeat, Hello, RegisterWorkerRequest, RegisterWorkerResponse, TileResult, WorkerMessage,
+    Heartbeat, Hello, RegisterWorkerRequest, RegisterWorkerResponse, TileAssignment, TileResult,
+    WorkerMessage,
 };
 use farm_proto::{MAX_MESSAGE_SIZE, PROTOCOL_VERSION};
 use std::collections::HashMap;
@@ -184,11 +185,7 @@ impl Worker {
 
     /// Sends the held results, except those of cancelled jobs; false when
     /// the stream is gone.
-    async fn send_held(
-        &mut self,
-        tx: &mpsc::Sender<WorkerMessage>,
-        held: &mut Vec<(Arc<AtomicBool>, bool, TileResult)>,
-    ) -> bool {
+    async fn send_held(&mut self, tx: &mpsc::Sender<WorkerMessage>, held: &mut Vec<Held>) -> bool {
         for (cancelled, rendered, result) in held.drain(..) {
             if cancelled.load(Ordering::Relaxed) {
                 continue;
@@ -231,9 +228,6 @@ impl Worker {
         });
         let mut heartbeat = tokio::time::interval_at(tokio::time::Instant::now() + period, period);
         heartbeat.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Delay);
-        // Per job: a flag set on cancellation, and its tiles in flight.
-        let mut jobs: HashMap<u64, (Arc<AtomicBool>, usize)> = HashMap::new();
-        let mut tiles: JoinSet<TileOutcome> = JoinSet::new();
         // Finished results are held back and sent together once no more than
         // `low_water` tiles are left in progress: one write then carries
         // several results (and the coordinator answers with several
@@ -241,7 +235,7 @@ impl Worker {
         // busy over the round trip. Each message costs both sides system
         // calls and wake-ups, which a tile-at-a-time exchange pays per tile.
         let low_water = self.pool.threads().max(self.max_in_flight as usize / 2);
-        let mut held: Vec<(Arc<AtomicBool>, bool, TileResult)> = Vec::new();
+        let mut work = InFlight::default();
 
         let end = loop {
             tokio::select! {
@@ -250,48 +244,22 @@ impl Worker {
                 () = stopped(stop) => break SessionEnd::Shutdown,
                 message = inbound.message() => match message {
                     Ok(Some(m)) => match m.kind {
-                        Some(FromCoordinator::Assign(a)) => {
-                            let (flag, n) = jobs.entry(a.job_id).or_default();
-                            *n += 1;
-                            let task = render_tile(
-                                self.renderers.clone(),
-                                client.clone(),
-                                self.pool.clone(),
-                                a,
-                                flag.clone(),
-                            );
-                            tiles.spawn(task);
-                        }
-                        Some(FromCoordinator::Cancelled(c)) => {
-                            tracing::debug!(job_id = c.job_id, "job cancelled");
-                            if let Some((flag, _)) = jobs.remove(&c.job_id) {
-                                flag.store(true, Ordering::Relaxed);
-                            }
-                        }
+                        Some(FromCoordinator::Assign(a)) => work.start(self, &client, a),
+                        Some(FromCoordinator::Cancelled(c)) => work.cancel(c.job_id),
                         None => {}
                     },
                     Ok(None) => break SessionEnd::closed(),
                     Err(status) => break SessionEnd::Lost(status.to_string()),
                 },
-                Some(joined) = tiles.join_next() => {
+                Some(joined) = work.tiles.join_next() => {
                     let Ok(outcome) = joined else { continue };
-                    if let Some((flag, n)) = jobs.get_mut(&outcome.job_id) {
-                        if Arc::ptr_eq(flag, &outcome.cancelled) {
-                            *n -= 1;
-                            if *n == 0 {
-                                jobs.remove(&outcome.job_id);
-                            }
-                        }
-                    }
-                    if let Some(result) = outcome.result {
-                        held.push((outcome.cancelled, outcome.rendered, result));
-                    }
-                    if tiles.len() <= low_water && !self.send_held(&tx, &mut held).await {
+                    work.finished(outcome);
+                    if work.tiles.len() <= low_water && !self.send_held(&tx, &mut work.held).await {
                         break SessionEnd::closed();
                     }
                 }
                 _ = heartbeat.tick() => {
-                    if !self.send_held(&tx, &mut held).await {
+                    if !self.send_held(&tx, &mut work.held).await {
                         break SessionEnd::closed();
                     }
                     let beat = WorkerMessage { kind: Some(ToCoordinator::Heartbeat(Heartbeat {})) };
@@ -303,16 +271,67 @@ impl Worker {
         };
 
         // Drop queued tiles (the coordinator requeues them) and close our side.
-        for (flag, _) in jobs.values() {
-            flag.store(true, Ordering::Relaxed);
-        }
-        tiles.abort_all();
+        work.drop_all();
         drop(tx);
         if matches!(end, SessionEnd::Shutdown) {
             let drain = async { while let Ok(Some(_)) = inbound.message().await {} };
             let _ = tokio::time::timeout(CLOSE_GRACE, drain).await;
         }
         end
+    }
+}
+
+/// A held result: its job's cancellation flag, whether it holds a rendered
+/// tile, and the message.
+type Held = (Arc<AtomicBool>, bool, TileResult);
+
+/// A session's tiles: those rendering or queued, and results not yet sent.
+#[derive(Default)]
+struct InFlight {
+    /// Per job: a flag set on cancellation, and its tiles in flight.
+    jobs: HashMap<u64, (Arc<AtomicBool>, usize)>,
+    tiles: JoinSet<TileOutcome>,
+    held: Vec<Held>,
+}
+
+impl InFlight {
+    /// Starts rendering an assignment.
+    fn start(&mut self, worker: &Worker, client: &CoordinatorClient<Channel>, a: TileAssignment) {
+        let (flag, n) = self.jobs.entry(a.job_id).or_default();
+        *n += 1;
+        let (renderers, pool) = (worker.renderers.clone(), worker.pool.clone());
+        self.tiles.spawn(render_tile(renderers, client.clone(), pool, a, flag.clone()));
+    }
+
+    /// Flags a cancelled job's tiles, so they are neither rendered nor sent.
+    fn cancel(&mut self, job_id: u64) {
+        tracing::debug!(job_id, "job cancelled");
+        if let Some((flag, _)) = self.jobs.remove(&job_id) {
+            flag.store(true, Ordering::Relaxed);
+        }
+    }
+
+    /// Takes a finished tile: its result waits in `held`.
+    fn finished(&mut self, outcome: TileOutcome) {
+        if let Some((flag, n)) = self.jobs.get_mut(&outcome.job_id) {
+            if Arc::ptr_eq(flag, &outcome.cancelled) {
+                *n -= 1;
+                if *n == 0 {
+                    self.jobs.remove(&outcome.job_id);
+                }
+            }
+        }
+        if let Some(result) = outcome.result {
+            self.held.push((outcome.cancelled, outcome.rendered, result));
+        }
+    }
+
+    /// Drops every queued and rendering tile.
+    fn drop_all(&mut self) {
+        for (flag, _) in self.jobs.values() {
+            flag.store(true, Ordering::Relaxed);
+        }
+        self.tiles.abort_all();
     }
 }
 
