@@ -3,7 +3,8 @@
 
 use super::LightSample;
 use crate::interaction::Interaction;
-use farm_common::geometry::Vec3;
+use farm_common::geometry::{Transform, Vec3};
+use farm_common::scene::Params;
 use farm_common::Spectrum;
 
 /// A directional light.
@@ -28,5 +29,17 @@ impl DistantLight {
             pdf: 1.0,
             p_light: Interaction { p: p_outside, time: r.time, ..Default::default() },
         })
+    }
+}
+
+impl DistantLight {
+    /// A `LightSource "distant"` (pbrt-v3 `CreateDistantLight`); its world
+    /// radius is set once the scene's bounds are known.
+    pub(super) fn create(p: &Params, render_from_light: &Transform) -> Self {
+        let l = p.spectrum("L", Spectrum::ONE) * p.spectrum("scale", Spectrum::ONE);
+        let from = p.point3("from", Vec3::ZERO);
+        let to = p.point3("to", Vec3::Z);
+        let w_light = render_from_light.vector(from - to).normalize();
+        DistantLight { l, w_light, world_radius: 0.0 }
     }
 }

@@ -3,11 +3,13 @@
 //! `lights/infinite.cpp`), sampled in proportion to its brightness.
 
 use super::LightSample;
-use crate::image::{MipMap, WrapMode};
+use crate::image::{read_image, MipMap, WrapMode};
 use crate::interaction::Interaction;
 use crate::sampling::Distribution2D;
 use farm_common::geometry::{Ray, Transform, Vec2, Vec3};
+use farm_common::scene::{Entity, Params, Warning};
 use farm_common::Spectrum;
+use std::collections::BTreeMap;
 use std::f32::consts::PI;
 
 /// An environment light.
@@ -119,6 +121,46 @@ fn spherical_phi(v: Vec3) -> f32 {
         p + 2.0 * PI
     } else {
         p
+    }
+}
+
+impl InfiniteLight {
+    /// A `LightSource "infinite"` (pbrt-v3 `CreateInfiniteLight`): `L`
+    /// times the `mapname` image read from `assets`, or `L` alone.
+    pub(super) fn create(
+        p: &Params,
+        e: &Entity,
+        render_from_light: &Transform,
+        assets: &BTreeMap<String, Vec<u8>>,
+        warnings: &mut Vec<Warning>,
+    ) -> Self {
+        let l = p.spectrum("L", Spectrum::ONE) * p.spectrum("scale", Spectrum::ONE);
+        p.touch("samples");
+        p.touch("nsamples");
+        let map = p.string("mapname", "");
+        let (w, h, texels) = if map.is_empty() {
+            (1, 1, vec![l])
+        } else {
+            match assets.get(&map).map(|b| read_image(b, &map)) {
+                Some(Ok(img)) => {
+                    let texels = img.pixels.iter().map(|&[r, g, b]| Spectrum::new(r, g, b) * l);
+                    (img.width, img.height, texels.collect())
+                }
+                Some(Err(err)) => {
+                    warnings
+                        .push(Warning::at(&e.loc, format!("{map}: {err}; using a constant map")));
+                    (1, 1, vec![l])
+                }
+                None => {
+                    warnings.push(Warning::at(
+                        &e.loc,
+                        format!("{map}: not loaded; using a constant map"),
+                    ));
+                    (1, 1, vec![l])
+                }
+            }
+        };
+        InfiniteLight::new(*render_from_light, w, h, texels)
     }
 }
 

@@ -3,7 +3,8 @@
 
 use super::LightSample;
 use crate::interaction::Interaction;
-use farm_common::geometry::{Transform, Vec3};
+use farm_common::geometry::{coordinate_system, Mat4, Transform, Vec3, Vec4};
+use farm_common::scene::Params;
 use farm_common::Spectrum;
 
 /// A spotlight.
@@ -50,5 +51,34 @@ impl SpotLight {
             pdf: 1.0,
             p_light: Interaction { p: self.p, time: r.time, ..Default::default() },
         })
+    }
+}
+
+impl SpotLight {
+    /// A `LightSource "spot"` (pbrt-v3 `CreateSpotLight`).
+    pub(super) fn create(p: &Params, render_from_light: &Transform) -> Self {
+        let i = p.spectrum("I", Spectrum::ONE) * p.spectrum("scale", Spectrum::ONE);
+        let cone = p.float("coneangle", 30.0);
+        let delta = p.float("conedelta", 5.0);
+        let from = p.point3("from", Vec3::ZERO);
+        let to = p.point3("to", Vec3::Z);
+        let dir = (to - from).normalize();
+        let (du, dv) = coordinate_system(dir);
+        // Rows du, dv, dir: maps dir to +z.
+        let dir_to_z = Mat4::from_cols(
+            Vec4::new(du.x, dv.x, dir.x, 0.0),
+            Vec4::new(du.y, dv.y, dir.y, 0.0),
+            Vec4::new(du.z, dv.z, dir.z, 0.0),
+            Vec4::W,
+        );
+        let light_m = render_from_light.m * Mat4::from_translation(from) * dir_to_z.transpose();
+        let t = Transform::new(light_m);
+        SpotLight {
+            p: t.point(Vec3::ZERO),
+            light_from_render: t.inverse(),
+            i,
+            cos_total_width: cone.to_radians().cos(),
+            cos_falloff_start: (cone - delta).to_radians().cos(),
+        }
     }
 }

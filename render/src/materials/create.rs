@@ -1,13 +1,57 @@
-//! Building materials from `Material`/`MakeNamedMaterial` directives with
-//! pbrt-v3's parameter names and defaults (`Create*Material`).
+//! Building materials from `Material`/`MakeNamedMaterial` directives: the
+//! name → constructor table (pbrt-v3 `api.cpp` `MakeMaterial`); each
+//! material's constructor, with pbrt-v3's parameter names and defaults,
+//! sits in its own file.
 
 use super::{
     Glass, Material, Matte, Metal, Mirror, MixMaterial, Plastic, Substrate, Translucent, Uber,
 };
-use crate::textures::{Resolver, TextureSet};
-use farm_common::cie::{copper_eta, copper_k};
+use crate::textures::{Resolver, TexInput, TextureSet};
 use farm_common::scene::{MaterialEntity, Params, Warning};
 use farm_common::Spectrum;
+
+/// What every material's constructor reads: its parameters, the textures
+/// they may name, and the two parameters all materials share.
+pub(super) struct MaterialParams<'a> {
+    p: &'a Params<'a>,
+    r: &'a Resolver<'a>,
+    /// `"float bumpmap"` (a float texture), if given.
+    pub bump: Option<TexInput<f32>>,
+    /// `"bool remaproughness"`.
+    pub remap: bool,
+}
+
+impl MaterialParams<'_> {
+    /// A spectrum texture or value, defaulting to `v` in every channel.
+    pub fn s(&self, name: &str, v: f32, w: &mut Vec<Warning>) -> TexInput<Spectrum> {
+        self.r.spectrum(self.p, name, Spectrum::splat(v), w)
+    }
+
+    /// A spectrum texture or value, defaulting to `default`.
+    pub fn spectrum(
+        &self,
+        name: &str,
+        default: Spectrum,
+        w: &mut Vec<Warning>,
+    ) -> TexInput<Spectrum> {
+        self.r.spectrum(self.p, name, default, w)
+    }
+
+    /// A float texture or value, defaulting to `v`.
+    pub fn f(&self, name: &str, v: f32, w: &mut Vec<Warning>) -> TexInput<f32> {
+        self.r.float(self.p, name, v, w)
+    }
+
+    /// A float texture or value, if given.
+    pub fn opt(&self, name: &str, w: &mut Vec<Warning>) -> Option<TexInput<f32>> {
+        self.r.float_or_none(self.p, name, w)
+    }
+
+    /// The index of refraction: `eta`, or its older name `index`.
+    pub fn eta(&self, w: &mut Vec<Warning>) -> TexInput<f32> {
+        self.opt("eta", w).unwrap_or_else(|| self.f("index", 1.5, w))
+    }
+}
 
 fn make(
     e: &MaterialEntity,
@@ -16,72 +60,17 @@ fn make(
     r: &Resolver,
     w: &mut Vec<Warning>,
 ) -> Material {
-    let s = |name: &str, v: f32, w: &mut Vec<Warning>| r.spectrum(p, name, Spectrum::splat(v), w);
-    let f = |name: &str, v: f32, w: &mut Vec<Warning>| r.float(p, name, v, w);
     let bump = r.float_or_none(p, "bumpmap", w);
-    let remap = p.bool("remaproughness", true);
-    // `eta` takes precedence over its older name `index`.
-    let eta = |w: &mut Vec<Warning>| {
-        r.float_or_none(p, "eta", w).unwrap_or_else(|| r.float(p, "index", 1.5, w))
-    };
+    let m = MaterialParams { p, r, bump, remap: p.bool("remaproughness", true) };
     let loc = &e.entity.loc;
     match e.entity.name.as_str() {
-        "plastic" => Material::Plastic(Plastic {
-            kd: s("Kd", 0.25, w),
-            ks: s("Ks", 0.25, w),
-            roughness: f("roughness", 0.1, w),
-            remap_roughness: remap,
-            bump,
-        }),
-        "mirror" => Material::Mirror(Mirror { kr: s("Kr", 0.9, w), bump }),
-        "glass" => Material::Glass(Glass {
-            kr: s("Kr", 1.0, w),
-            kt: s("Kt", 1.0, w),
-            eta: eta(w),
-            u_roughness: f("uroughness", 0.0, w),
-            v_roughness: f("vroughness", 0.0, w),
-            remap_roughness: remap,
-            bump,
-        }),
-        "metal" => Material::Metal(Metal {
-            eta: r.spectrum(p, "eta", copper_eta(), w),
-            k: r.spectrum(p, "k", copper_k(), w),
-            roughness: f("roughness", 0.01, w),
-            u_roughness: r.float_or_none(p, "uroughness", w),
-            v_roughness: r.float_or_none(p, "vroughness", w),
-            remap_roughness: remap,
-            bump,
-        }),
-        "uber" => Material::Uber(Uber {
-            kd: s("Kd", 0.25, w),
-            ks: s("Ks", 0.25, w),
-            kr: s("Kr", 0.0, w),
-            kt: s("Kt", 0.0, w),
-            roughness: f("roughness", 0.1, w),
-            u_roughness: r.float_or_none(p, "uroughness", w),
-            v_roughness: r.float_or_none(p, "vroughness", w),
-            eta: eta(w),
-            opacity: s("opacity", 1.0, w),
-            remap_roughness: remap,
-            bump,
-        }),
-        "substrate" => Material::Substrate(Substrate {
-            kd: s("Kd", 0.5, w),
-            ks: s("Ks", 0.5, w),
-            u_roughness: f("uroughness", 0.1, w),
-            v_roughness: f("vroughness", 0.1, w),
-            remap_roughness: remap,
-            bump,
-        }),
-        "translucent" => Material::Translucent(Translucent {
-            kd: s("Kd", 0.25, w),
-            ks: s("Ks", 0.25, w),
-            reflect: s("reflect", 0.5, w),
-            transmit: s("transmit", 0.5, w),
-            roughness: f("roughness", 0.1, w),
-            remap_roughness: remap,
-            bump,
-        }),
+        "plastic" => Material::Plastic(Plastic::create(m, w)),
+        "mirror" => Material::Mirror(Mirror::create(m, w)),
+        "glass" => Material::Glass(Glass::create(m, w)),
+        "metal" => Material::Metal(Metal::create(m, w)),
+        "uber" => Material::Uber(Uber::create(m, w)),
+        "substrate" => Material::Substrate(Substrate::create(m, w)),
+        "translucent" => Material::Translucent(Translucent::create(m, w)),
         "mix" => {
             let pick = |name: &str, w: &mut Vec<Warning>| match p.material(name) {
                 Some(m) if (m as usize) < index => m,
@@ -92,13 +81,13 @@ fn make(
             };
             let m1 = pick("namedmaterial1", w);
             let m2 = pick("namedmaterial2", w);
-            Material::Mix(MixMaterial { m1, m2, amount: s("amount", 0.5, w) })
+            Material::Mix(MixMaterial { m1, m2, amount: m.s("amount", 0.5, w) })
         }
         other => {
             if other != "matte" {
                 w.push(Warning::at(loc, format!("Material \"{other}\" unknown. Using \"matte\".")));
             }
-            Material::Matte(Matte { kd: s("Kd", 0.5, w), sigma: f("sigma", 0.0, w), bump })
+            Material::Matte(Matte::create(m, w))
         }
     }
 }

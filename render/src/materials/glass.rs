@@ -1,5 +1,6 @@
 //! `Material "glass"` (pbrt-v3 `GlassMaterial`): specular or rough dielectric.
 
+use super::create::MaterialParams;
 use crate::bxdf::{
     roughness_to_alpha, Bsdf, BxDF, Fresnel, FresnelSpecular, MicrofacetDistribution,
     MicrofacetReflection, MicrofacetTransmission, SpecularReflection, SpecularTransmission,
@@ -7,6 +8,7 @@ use crate::bxdf::{
 };
 use crate::interaction::SurfaceInteraction;
 use crate::textures::{TexInput, TextureSet};
+use farm_common::scene::Warning;
 use farm_common::Spectrum;
 
 /// A dielectric boundary.
@@ -90,5 +92,20 @@ impl Glass {
             });
         }
         bsdf
+    }
+}
+
+impl Glass {
+    /// A `Material "glass"` with pbrt-v3's parameters and defaults (`CreateGlassMaterial`).
+    pub(super) fn create(m: MaterialParams, w: &mut Vec<Warning>) -> Self {
+        Glass {
+            kr: m.s("Kr", 1.0, w),
+            kt: m.s("Kt", 1.0, w),
+            eta: m.eta(w),
+            u_roughness: m.f("uroughness", 0.0, w),
+            v_roughness: m.f("vroughness", 0.0, w),
+            remap_roughness: m.remap,
+            bump: m.bump,
+        }
     }
 }

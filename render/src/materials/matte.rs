@@ -1,9 +1,11 @@
 //! `Material "matte"` (pbrt-v3 `MatteMaterial`): Lambertian, or Oren–Nayar
 //! when `sigma` > 0.
 
+use super::create::MaterialParams;
 use crate::bxdf::{Bsdf, BxDF, LambertianReflection, OrenNayar};
 use crate::interaction::SurfaceInteraction;
 use crate::textures::{TexInput, TextureSet};
+use farm_common::scene::Warning;
 use farm_common::Spectrum;
 
 /// Diffuse reflection.
@@ -31,5 +33,12 @@ impl Matte {
             }
         }
         bsdf
+    }
+}
+
+impl Matte {
+    /// A `Material "matte"` with pbrt-v3's parameters and defaults (`CreateMatteMaterial`).
+    pub(super) fn create(m: MaterialParams, w: &mut Vec<Warning>) -> Self {
+        Matte { kd: m.s("Kd", 0.5, w), sigma: m.f("sigma", 0.0, w), bump: m.bump }
     }
 }

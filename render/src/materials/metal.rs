@@ -1,11 +1,14 @@
 //! `Material "metal"` (pbrt-v3 `MetalMaterial`): a rough conductor, copper
 //! by default.
 
+use super::create::MaterialParams;
 use crate::bxdf::{
     roughness_to_alpha, Bsdf, BxDF, Fresnel, MicrofacetDistribution, MicrofacetReflection,
 };
 use crate::interaction::SurfaceInteraction;
 use crate::textures::{TexInput, TextureSet};
+use farm_common::cie::{copper_eta, copper_k};
+use farm_common::scene::Warning;
 use farm_common::Spectrum;
 
 /// A conductor.
@@ -48,5 +51,20 @@ impl Metal {
             fresnel,
         }));
         bsdf
+    }
+}
+
+impl Metal {
+    /// A `Material "metal"` with pbrt-v3's parameters and defaults (`CreateMetalMaterial`).
+    pub(super) fn create(m: MaterialParams, w: &mut Vec<Warning>) -> Self {
+        Metal {
+            eta: m.spectrum("eta", copper_eta(), w),
+            k: m.spectrum("k", copper_k(), w),
+            roughness: m.f("roughness", 0.01, w),
+            u_roughness: m.opt("uroughness", w),
+            v_roughness: m.opt("vroughness", w),
+            remap_roughness: m.remap,
+            bump: m.bump,
+        }
     }
 }

@@ -1,8 +1,10 @@
 //! `Material "mirror"` (pbrt-v3 `MirrorMaterial`): perfect specular reflection.
 
+use super::create::MaterialParams;
 use crate::bxdf::{Bsdf, BxDF, Fresnel, SpecularReflection};
 use crate::interaction::SurfaceInteraction;
 use crate::textures::{TexInput, TextureSet};
+use farm_common::scene::Warning;
 use farm_common::Spectrum;
 
 /// A perfect mirror.
@@ -23,5 +25,12 @@ impl Mirror {
             bsdf.add(BxDF::SpecularReflection(SpecularReflection { r, fresnel: Fresnel::NoOp }));
         }
         bsdf
+    }
+}
+
+impl Mirror {
+    /// A `Material "mirror"` with pbrt-v3's parameters and defaults (`CreateMirrorMaterial`).
+    pub(super) fn create(m: MaterialParams, w: &mut Vec<Warning>) -> Self {
+        Mirror { kr: m.s("Kr", 0.9, w), bump: m.bump }
     }
 }

@@ -1,12 +1,14 @@
 //! `Material "plastic"` (pbrt-v3 `PlasticMaterial`): diffuse plus a glossy
 //! dielectric coat (η = 1.5).
 
+use super::create::MaterialParams;
 use crate::bxdf::{
     roughness_to_alpha, Bsdf, BxDF, Fresnel, LambertianReflection, MicrofacetDistribution,
     MicrofacetReflection,
 };
 use crate::interaction::SurfaceInteraction;
 use crate::textures::{TexInput, TextureSet};
+use farm_common::scene::Warning;
 use farm_common::Spectrum;
 
 /// Diffuse and glossy reflection.
@@ -45,5 +47,18 @@ impl Plastic {
             }));
         }
         bsdf
+    }
+}
+
+impl Plastic {
+    /// A `Material "plastic"` with pbrt-v3's parameters and defaults (`CreatePlasticMaterial`).
+    pub(super) fn create(m: MaterialParams, w: &mut Vec<Warning>) -> Self {
+        Plastic {
+            kd: m.s("Kd", 0.25, w),
+            ks: m.s("Ks", 0.25, w),
+            roughness: m.f("roughness", 0.1, w),
+            remap_roughness: m.remap,
+            bump: m.bump,
+        }
     }
 }

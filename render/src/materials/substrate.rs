@@ -1,9 +1,11 @@
 //! `Material "substrate"` (pbrt-v3 `SubstrateMaterial`): Ashikhmin–Shirley
 //! coated diffuse.
 
+use super::create::MaterialParams;
 use crate::bxdf::{roughness_to_alpha, Bsdf, BxDF, FresnelBlend, MicrofacetDistribution};
 use crate::interaction::SurfaceInteraction;
 use crate::textures::{TexInput, TextureSet};
+use farm_common::scene::Warning;
 use farm_common::Spectrum;
 
 /// A glossy coat over a diffuse base.
@@ -40,5 +42,19 @@ impl Substrate {
             bsdf.add(BxDF::FresnelBlend(FresnelBlend { rd: d, rs: s, distribution }));
         }
         bsdf
+    }
+}
+
+impl Substrate {
+    /// A `Material "substrate"` with pbrt-v3's parameters and defaults (`CreateSubstrateMaterial`).
+    pub(super) fn create(m: MaterialParams, w: &mut Vec<Warning>) -> Self {
+        Substrate {
+            kd: m.s("Kd", 0.5, w),
+            ks: m.s("Ks", 0.5, w),
+            u_roughness: m.f("uroughness", 0.1, w),
+            v_roughness: m.f("vroughness", 0.1, w),
+            remap_roughness: m.remap,
+            bump: m.bump,
+        }
     }
 }

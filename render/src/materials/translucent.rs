@@ -1,12 +1,14 @@
 //! `Material "translucent"` (pbrt-v3 `TranslucentMaterial`): diffuse and
 //! glossy reflection and transmission.
 
+use super::create::MaterialParams;
 use crate::bxdf::{
     roughness_to_alpha, Bsdf, BxDF, Fresnel, LambertianReflection, LambertianTransmission,
     MicrofacetDistribution, MicrofacetReflection, MicrofacetTransmission, TransportMode,
 };
 use crate::interaction::SurfaceInteraction;
 use crate::textures::{TexInput, TextureSet};
+use farm_common::scene::Warning;
 use farm_common::Spectrum;
 
 /// A thin translucent surface.
@@ -74,5 +76,20 @@ impl Translucent {
             }
         }
         bsdf
+    }
+}
+
+impl Translucent {
+    /// A `Material "translucent"` with pbrt-v3's parameters and defaults (`CreateTranslucentMaterial`).
+    pub(super) fn create(m: MaterialParams, w: &mut Vec<Warning>) -> Self {
+        Translucent {
+            kd: m.s("Kd", 0.25, w),
+            ks: m.s("Ks", 0.25, w),
+            reflect: m.s("reflect", 0.5, w),
+            transmit: m.s("transmit", 0.5, w),
+            roughness: m.f("roughness", 0.1, w),
+            remap_roughness: m.remap,
+            bump: m.bump,
+        }
     }
 }

@@ -1,12 +1,14 @@
 //! `Material "uber"` (pbrt-v3 `UberMaterial`): diffuse, glossy, specular
 //! reflection and transmission, with partial opacity.
 
+use super::create::MaterialParams;
 use crate::bxdf::{
     roughness_to_alpha, Bsdf, BxDF, Fresnel, LambertianReflection, MicrofacetDistribution,
     MicrofacetReflection, SpecularReflection, SpecularTransmission, TransportMode,
 };
 use crate::interaction::SurfaceInteraction;
 use crate::textures::{TexInput, TextureSet};
+use farm_common::scene::Warning;
 use farm_common::Spectrum;
 
 /// The kitchen-sink material.
@@ -88,5 +90,24 @@ impl Uber {
             }));
         }
         bsdf
+    }
+}
+
+impl Uber {
+    /// A `Material "uber"` with pbrt-v3's parameters and defaults (`CreateUberMaterial`).
+    pub(super) fn create(m: MaterialParams, w: &mut Vec<Warning>) -> Self {
+        Uber {
+            kd: m.s("Kd", 0.25, w),
+            ks: m.s("Ks", 0.25, w),
+            kr: m.s("Kr", 0.0, w),
+            kt: m.s("Kt", 0.0, w),
+            roughness: m.f("roughness", 0.1, w),
+            u_roughness: m.opt("uroughness", w),
+            v_roughness: m.opt("vroughness", w),
+            eta: m.eta(w),
+            opacity: m.s("opacity", 1.0, w),
+            remap_roughness: m.remap,
+            bump: m.bump,
+        }
     }
 }
