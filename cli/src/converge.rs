@@ -74,7 +74,7 @@ pub fn run(
         None => None,
     };
     let render = |spp: Option<u32>, progress: &mut dyn FnMut(u32, &Progress)| {
-        let o = SubmitOptions { output: None, spp, threads: opts.threads, all_paths: false };
+        let o = SubmitOptions { spp, threads: opts.threads, ..Default::default() };
         let label = spp.unwrap_or(0);
         embedded::render(scene, &o, |p| progress(label, p))
     };

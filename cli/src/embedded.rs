@@ -6,7 +6,7 @@
 //! engine, whichever way a scene is rendered.
 
 use crate::error::Error;
-use farm_common::film::{FilmGeometry, FilmTile};
+use farm_common::film::{checked_layout, FilmGeometry, FilmTile, Limits};
 use farm_common::ids::{JobId, TileId, WorkerId};
 use farm_common::image::{self, ImageMetadata, RgbImage};
 use farm_common::scene::Warning;
@@ -37,6 +37,8 @@ pub struct SubmitOptions {
     /// Compute ray differentials and every camera-sample dimension even
     /// where the scene does not use them (a benchmark's baseline).
     pub all_paths: bool,
+    /// The largest film and sample counts to render.
+    pub limits: Limits,
 }
 
 /// Progress of a running render.
@@ -226,6 +228,8 @@ pub fn render(
 ) -> Result<RenderSummary, Error> {
     let start = Instant::now();
     let (desc, mut warnings) = farm_scene::parse_file(scene)?;
+    // Refuse an oversize film before anything is allocated for it.
+    checked_layout(&desc, opts.spp, &opts.limits)?;
     let (renderer, build_warnings) =
         Renderer::new(&desc, &RenderOptions { spp: opts.spp, all_paths: opts.all_paths })?;
     warnings.extend(build_warnings);

@@ -266,3 +266,39 @@ fn bench_tabulates_each_reference_scene() {
         .expect("run farm");
     assert_eq!(out.status.code(), Some(2));
 }
+
+/// An oversize film or sample count ends with one clear line and exit code
+/// 2 before anything is allocated (a 100000² film would need 320 GB; the
+/// test would abort or take minutes if it were).
+#[test]
+fn oversize_films_and_sample_counts_are_refused_before_rendering() {
+    let dir = temp_dir("oversize");
+    let big = dir.join("big.pbrt");
+    let film = "Film \"image\" \"integer xresolution\" 100000 \"integer yresolution\" 100000";
+    std::fs::write(&big, format!("{film}\nWorldBegin\nShape \"sphere\"\nWorldEnd\n")).unwrap();
+    let (code, stderr) = submit(&big);
+    assert_eq!(code, 2, "{stderr}");
+    assert!(stderr.contains("10000000000 pixels (100000×100000)"), "{stderr}");
+    assert!(stderr.contains("--max-pixels") && !stderr.contains("panicked"), "{stderr}");
+
+    let small = dir.join("small.pbrt");
+    let film = "Film \"image\" \"integer xresolution\" 16 \"integer yresolution\" 16";
+    std::fs::write(&small, format!("{film}\nWorldBegin\nShape \"sphere\"\nWorldEnd\n")).unwrap();
+    let out = Command::new(env!("CARGO_BIN_EXE_farm"))
+        .args(["submit", "-q", "--spp", "4294967295", "-o"])
+        .arg(dir.join("small.exr"))
+        .arg(&small)
+        .output()
+        .expect("run farm");
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{stderr}");
+    assert!(stderr.contains("4294967295 samples per pixel") && stderr.contains("--max-spp"));
+    // The same scene within raised limits renders.
+    let out = Command::new(env!("CARGO_BIN_EXE_farm"))
+        .args(["submit", "-q", "--spp", "4", "--max-samples", "100000", "-o"])
+        .arg(dir.join("small.exr"))
+        .arg(&small)
+        .output()
+        .expect("run farm");
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+}

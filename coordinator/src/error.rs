@@ -46,6 +46,9 @@ pub enum Error {
     /// A job whose manifest names an asset not uploaded.
     #[error("asset {0} has not been uploaded")]
     MissingAsset(String),
+    /// A job whose film or samples are over the coordinator's limits.
+    #[error(transparent)]
+    TooLarge(#[from] farm_common::film::TooLarge),
     /// A job whose film has no pixels.
     #[error("the film has no pixels")]
     EmptyFilm,
@@ -86,6 +89,7 @@ impl From<Error> for Status {
             | Error::HashMismatch
             | Error::BadManifest(_)
             | Error::EmptyFilm
+            | Error::TooLarge(_)
             | Error::UnknownTile(..)
             | Error::WrongDimensions(_) => Status::invalid_argument(message),
             Error::Transport(_) | Error::Scheduler(_) => Status::internal(message),

@@ -220,6 +220,30 @@ async fn an_oversized_message_is_refused_and_the_coordinator_lives_on() {
     cluster.stop().await;
 }
 
+/// A job whose film would need hundreds of gigabytes is refused by the
+/// coordinator with a message saying so; the coordinator, which would have
+/// aborted allocating it, goes on rendering other jobs.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn an_oversize_film_is_refused_and_the_coordinator_lives_on() {
+    let cluster = TestCluster::start(1, Duration::from_millis(500)).await;
+    let dir = std::env::temp_dir().join(format!("farm-oversize-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).expect("temp dir");
+    let big = dir.join("big.pbrt");
+    let film = "Film \"image\" \"integer xresolution\" 100000 \"integer yresolution\" 100000";
+    std::fs::write(&big, format!("{film}\nWorldBegin\nShape \"sphere\"\nWorldEnd\n")).unwrap();
+    let err = client::submit(&cluster.url, &big, &RemoteOptions::default(), |_, _| {}).await;
+    let Err(farm_cli::Error::Rpc(status)) = err else { panic!("not refused: {err:?}") };
+    assert_eq!(status.code(), tonic::Code::InvalidArgument);
+    assert!(status.message().contains("10000000000 pixels"), "{}", status.message());
+    let opts = RemoteOptions { spp: Some(u32::MAX), ..Default::default() };
+    let err = client::submit(&cluster.url, &scene(), &opts, |_, _| {}).await;
+    let Err(farm_cli::Error::Rpc(status)) = err else { panic!("not refused: {err:?}") };
+    assert!(status.message().contains("--max-spp"), "{}", status.message());
+    // The farm still renders, bit for bit as embedded.
+    assert!(bits(&remote(&cluster.url).await) == bits(&embedded()));
+    cluster.stop().await;
+}
+
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn a_coordinator_shutting_down_tells_its_clients() {
     let cluster = TestCluster::start(0, Duration::from_millis(500)).await;

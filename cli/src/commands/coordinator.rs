@@ -12,6 +12,9 @@ pub struct CoordinatorArgs {
     /// Seconds between worker heartbeats; a worker silent for three is lost.
     #[arg(long, default_value_t = 2.0)]
     pub heartbeat: f64,
+    /// The largest job to accept.
+    #[command(flatten)]
+    pub limits: super::LimitArgs,
 }
 
 /// Listens, then serves until SIGINT or SIGTERM.
@@ -29,7 +32,10 @@ pub async fn run(args: CoordinatorArgs) -> ExitCode {
     eprintln!("coordinator listening on {addr}");
     match farm_coordinator::server::serve(
         listener,
-        farm_coordinator::server::ServerConfig::with_heartbeat(heartbeat),
+        farm_coordinator::server::ServerConfig {
+            limits: (&args.limits).into(),
+            ..farm_coordinator::server::ServerConfig::with_heartbeat(heartbeat)
+        },
         crate::runtime::shutdown_signal(),
     )
     .await

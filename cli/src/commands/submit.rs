@@ -38,6 +38,9 @@ pub struct SubmitArgs {
     /// its two half-images) to this image (.exr, .pfm or .png).
     #[arg(long, value_name = "FILE")]
     pub error_map: Option<PathBuf>,
+    /// The largest render to start (embedded; a coordinator has its own).
+    #[command(flatten)]
+    pub limits: super::LimitArgs,
 }
 
 /// Renders where the arguments say.
@@ -84,6 +87,7 @@ fn run_embedded(args: SubmitArgs) -> ExitCode {
         spp: args.spp,
         threads: args.threads,
         all_paths: false,
+        limits: (&args.limits).into(),
     };
     let bar = crate::progress::progress_bar(args.quiet);
     let started = std::time::Instant::now();

@@ -170,6 +170,74 @@ pub fn round_up_pow2(v: i64) -> i64 {
     (v.max(1) as u64).next_power_of_two() as i64
 }
 
+/// The largest render a farm accepts, checked against a scene's film before
+/// anything is allocated for it.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Limits {
+    /// Pixels of the film (`xresolution` × `yresolution`).
+    pub max_pixels: u64,
+    /// Samples per pixel.
+    pub max_spp: u64,
+    /// Samples in all: the film's sample pixels × samples per pixel.
+    pub max_samples: u64,
+}
+
+impl Default for Limits {
+    /// 8192² pixels (a 2 GiB film), 2^20 samples per pixel, 2^40 samples.
+    fn default() -> Self {
+        Limits { max_pixels: 1 << 26, max_spp: 1 << 20, max_samples: 1 << 40 }
+    }
+}
+
+/// A film or sample count over the [`Limits`].
+#[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
+#[error("the job is too large: {0}")]
+pub struct TooLarge(pub String);
+
+/// The longest side a film may have, whatever the limits: beyond it the
+/// tile arithmetic would overflow.
+const MAX_SIDE: u64 = 1 << 30;
+
+/// [`layout`], refused with a message saying how much the job would need
+/// when its film or its samples are over `limits`. The film's resolution
+/// is checked before its geometry is computed.
+pub fn checked_layout(
+    desc: &SceneDescription,
+    spp_override: Option<u32>,
+    limits: &Limits,
+) -> Result<(FilmLayout, Vec<Warning>), TooLarge> {
+    let fp = Params::new(&desc.film.params);
+    let side = |name: &str, default: i32| fp.int(name, default).max(1) as u64;
+    let (x, y) = (side("xresolution", 1280), side("yresolution", 720));
+    let pixels = x * y;
+    if x > MAX_SIDE || y > MAX_SIDE || pixels > limits.max_pixels {
+        let bytes = pixels as f64 * std::mem::size_of::<super::Pixel>() as f64;
+        return Err(TooLarge(format!(
+            "the film has {pixels} pixels ({x}×{y}), over the limit of {} (--max-pixels); its sums alone would take {:.1} GB",
+            limits.max_pixels,
+            bytes / 1e9
+        )));
+    }
+    let (l, warnings) = layout(desc, spp_override);
+    let spp = l.samples.max(0) as u64;
+    if spp > limits.max_spp {
+        return Err(TooLarge(format!(
+            "{spp} samples per pixel are over the limit of {} (--max-spp)",
+            limits.max_spp
+        )));
+    }
+    let b = l.geometry.sample_bounds;
+    let sample_pixels = b.width().max(0) as u64 * b.height().max(0) as u64;
+    match sample_pixels.checked_mul(spp) {
+        Some(n) if n <= limits.max_samples => Ok((l, warnings)),
+        n => Err(TooLarge(format!(
+            "{} samples ({sample_pixels} pixels with the filter's margin × {spp} spp) are over the limit of {} (--max-samples)",
+            n.map_or_else(|| "more than 2^64".to_string(), |n| n.to_string()),
+            limits.max_samples
+        ))),
+    }
+}
+
 /// The film layout of `desc` with `spp_override` samples per pixel instead
 /// of the sampler's count (for stratified: the most nearly square grid with
 /// that many cells). The warnings are the `Film` directive's unused
@@ -305,5 +373,41 @@ mod tests {
         assert_eq!(l.halves(), Halves::ByPosition { spp: 8.0 });
         let (l, _) = layout(&scene("box", "sobol", &[]), Some(8));
         assert_eq!(l.halves(), Halves::ByIndex { half: 4 });
+    }
+
+    fn film(x: i32, y: i32) -> SceneDescription {
+        let mut desc = scene("gaussian", "halton", &[]);
+        for (n, v) in [("xresolution", x), ("yresolution", y)] {
+            desc.film.params.add(Param {
+                name: n.into(),
+                value: ParamValue::Int(vec![v]),
+                loc: FileLoc::default(),
+            });
+        }
+        desc
+    }
+
+    #[test]
+    fn oversize_films_and_sample_counts_are_refused_with_what_they_need() {
+        let limits = Limits::default();
+        let (l, _) = checked_layout(&film(1920, 1080), None, &limits).expect("an HD film");
+        assert_eq!(l.spp(), 16);
+        let e = checked_layout(&film(100_000, 100_000), None, &limits).unwrap_err();
+        assert!(e.0.contains("10000000000 pixels (100000×100000)"), "{e}");
+        assert!(e.0.contains("--max-pixels") && e.0.contains("GB"), "{e}");
+        // Sides whose tile arithmetic would overflow are refused before it runs.
+        let e =
+            checked_layout(&film(i32::MAX, 1), None, &Limits { max_pixels: u64::MAX, ..limits });
+        assert!(e.unwrap_err().0.contains("pixels"));
+        let e = checked_layout(&film(64, 64), Some(u32::MAX), &limits).unwrap_err();
+        assert!(e.0.contains("4294967295 samples per pixel") && e.0.contains("--max-spp"), "{e}");
+        let tight = Limits { max_samples: 1000, ..limits };
+        let e = checked_layout(&film(64, 64), None, &tight).unwrap_err();
+        assert!(e.0.contains("--max-samples") && e.0.contains("16 spp"), "{e}");
+        let huge = Limits { max_pixels: u64::MAX, max_spp: u64::MAX, max_samples: u64::MAX };
+        assert!(checked_layout(&film(1 << 20, 1 << 20), None, &huge).is_ok());
+        // A product past 64 bits is refused, not wrapped.
+        let e = checked_layout(&film(1 << 20, 1 << 20), Some(u32::MAX), &huge).unwrap_err();
+        assert!(e.0.contains("more than 2^64"), "{e}");
     }
 }

@@ -6,8 +6,8 @@ mod tile;
 mod tiling;
 
 pub use layout::{
-    default_filter_radius, filter_radius, is_power_of_2, layout, round_up_pow2, sample_count,
-    FilmLayout, Halves, SamplerKind, MAX_MIN_DIST_MAX_SPP,
+    checked_layout, default_filter_radius, filter_radius, is_power_of_2, layout, round_up_pow2,
+    sample_count, FilmLayout, Halves, Limits, SamplerKind, TooLarge, MAX_MIN_DIST_MAX_SPP,
 };
 pub use tile::{FilmTile, Pixel};
 pub use tiling::{FilmGeometry, TILE_SIZE};

@@ -10,6 +10,7 @@ pub use blobs::BlobStore;
 pub use events::{Event, FromWorker};
 
 use crate::scheduler::SchedulerConfig;
+use farm_common::film::Limits;
 use farm_proto::v1::coordinator_server::CoordinatorServer;
 use farm_proto::MAX_MESSAGE_SIZE;
 use std::future::Future;
@@ -26,6 +27,8 @@ pub struct ServerConfig {
     pub heartbeat_interval: Duration,
     /// Scheduling limits.
     pub scheduler: SchedulerConfig,
+    /// The largest film and sample counts a job may have.
+    pub limits: Limits,
 }
 
 impl Default for ServerConfig {
@@ -43,6 +46,7 @@ impl ServerConfig {
                 worker_timeout: heartbeat_interval * 3,
                 ..Default::default()
             },
+            limits: Limits::default(),
         }
     }
 }
@@ -69,7 +73,8 @@ pub async fn serve(
             }
         })
     };
-    let svc = service::CoordinatorService::new(events.clone(), config.heartbeat_interval);
+    let svc =
+        service::CoordinatorService::new(events.clone(), config.heartbeat_interval, config.limits);
     let (health, health_service) = tonic_health::server::health_reporter();
     health.set_service_status("", tonic_health::ServingStatus::Serving).await;
     let grpc = CoordinatorServer::new(svc)

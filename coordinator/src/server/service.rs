@@ -5,6 +5,7 @@ use super::blobs::BlobStore;
 use super::events::{Event, FromWorker};
 use crate::error::Error;
 use crate::scheduler::JobSpec;
+use farm_common::film::Limits;
 use farm_common::ids::{JobId, WorkerId};
 use farm_proto::convert::{blob_chunks, decode_manifest};
 use farm_proto::v1::{self, coordinator_server::Coordinator, worker_message};
@@ -30,17 +31,19 @@ pub struct CoordinatorService {
     registered: Arc<Mutex<HashMap<WorkerId, (String, u32)>>>,
     next_worker: Arc<AtomicU64>,
     heartbeat: Duration,
+    limits: Limits,
 }
 
 impl CoordinatorService {
-    /// A service feeding `events`.
-    pub fn new(events: mpsc::UnboundedSender<Event>, heartbeat: Duration) -> Self {
+    /// A service feeding `events`, refusing jobs over `limits`.
+    pub fn new(events: mpsc::UnboundedSender<Event>, heartbeat: Duration, limits: Limits) -> Self {
         CoordinatorService {
             events,
             blobs: BlobStore::default(),
             registered: Arc::default(),
             next_worker: Arc::new(AtomicU64::new(1)),
             heartbeat,
+            limits,
         }
     }
 
@@ -170,7 +173,10 @@ impl Coordinator for CoordinatorService {
             }
         }
         let spp_override = (r.spp > 0).then_some(r.spp);
-        let (layout, _) = farm_common::film::layout(&desc, spp_override);
+        // Refused before anything is allocated for it.
+        let (layout, _) = farm_common::film::checked_layout(&desc, spp_override, &self.limits)
+            .inspect_err(|e| warn!(error = %e, "job refused"))
+            .map_err(Error::from)?;
         let spp = layout.spp();
         let geometry = layout.geometry;
         if geometry.cropped_pixel_bounds.is_empty() {
