@@ -168,7 +168,7 @@ pub fn measure_here(scene: &Path, threads: usize) -> Result<Measured, Error> {
         peak_rss_mb: peak_rss_mb(),
         spp: r.spp,
     };
-    println!("{}", m.to_line());
+    say!("{}", m.to_line());
     Ok(m)
 }
 

@@ -4,6 +4,15 @@
 //! binary's `main` only parses arguments and sets up logging.
 #![warn(missing_docs)]
 
+/// Prints a line on standard output; a closed pipe (`farm diff … | head`)
+/// ends the output quietly instead of panicking as `println!` does.
+macro_rules! say {
+    ($($arg:tt)*) => {{
+        use std::io::Write as _;
+        let _ = writeln!(std::io::stdout(), $($arg)*);
+    }};
+}
+
 /// `farm bench`: shared scenes against pbrt-v3's time and memory.
 pub mod bench;
 /// Talking to a coordinator.

@@ -302,3 +302,26 @@ fn oversize_films_and_sample_counts_are_refused_before_rendering() {
         .expect("run farm");
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
 }
+
+/// `farm diff a b | head -1`: a reader that goes away early ends the output
+/// quietly; it is not a panic.
+#[test]
+fn a_closed_output_pipe_is_not_a_panic() {
+    use farm_common::image::{write_image, ImageMetadata, RgbImage};
+    let dir = temp_dir("pipe");
+    let img = RgbImage { width: 1, height: 1, pixels: vec![[0.5; 3]] };
+    let a = dir.join("a.exr");
+    write_image(&a, &img, &ImageMetadata::default()).expect("write");
+    let (reader, writer) = std::io::pipe().expect("pipe");
+    drop(reader);
+    let out = Command::new(env!("CARGO_BIN_EXE_farm"))
+        .arg("diff")
+        .arg(&a)
+        .arg(&a)
+        .stdout(writer)
+        .output()
+        .expect("run farm");
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(!stderr.contains("panicked"), "{stderr}");
+    assert_eq!(out.status.code(), Some(0), "{stderr}");
+}

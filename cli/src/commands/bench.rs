@@ -55,7 +55,7 @@ pub fn run(args: &BenchArgs) -> ExitCode {
             return ExitCode::FAILURE;
         }
     };
-    println!(
+    say!(
         "{:<30} {:>4} {:>7} {:>7} {:>7} {:>7} {:>6} {:>8} {:>8} {:>6} {:>6} {:>8}",
         "scene",
         "spp",
@@ -80,7 +80,7 @@ pub fn run(args: &BenchArgs) -> ExitCode {
         let p = r.scene.pbrt.clone().unwrap_or_default();
         let speedup = r.speedup().map(|v| format!("{v:.2}")).unwrap_or_else(|| "-".into());
         match &r.measured {
-            Ok(m) => println!(
+            Ok(m) => say!(
                 "{:<30} {:>4} {:>7.2} {:>7.2} {:>7.2} {:>7.2} {:>6.2} {:>8.3} {:>8.2} {:>6.0} {:>6.0} {speedup:>8}",
                 r.scene.scene,
                 m.spp,
@@ -94,17 +94,17 @@ pub fn run(args: &BenchArgs) -> ExitCode {
                 m.peak_rss_mb,
                 p.rss_mb
             ),
-            Err(e) => println!("{:<30} {e}", r.scene.scene),
+            Err(e) => say!("{:<30} {e}", r.scene.scene),
         }
     });
     if let Some(g) = bench::cpu_ratio_geomean(&rows) {
-        println!("geometric mean of CPU s / pbrt-v3 CPU s: {g:.3}");
+        say!("geometric mean of CPU s / pbrt-v3 CPU s: {g:.3}");
     }
     if let Err(e) = std::fs::write(&args.csv, bench::csv(&rows)) {
         eprintln!("error: cannot write {}: {e}", args.csv.display());
         return ExitCode::FAILURE;
     }
-    println!("wrote {}", args.csv.display());
+    say!("wrote {}", args.csv.display());
     if rows.iter().any(|r| r.measured.is_err()) {
         return ExitCode::FAILURE;
     }

@@ -17,7 +17,7 @@ pub struct CancelArgs {
 pub async fn run(args: CancelArgs) -> ExitCode {
     match crate::client::cancel(&args.remote.coordinator, args.job).await {
         Ok(true) => {
-            println!("job {} cancelled", args.job);
+            say!("job {} cancelled", args.job);
             ExitCode::SUCCESS
         }
         Ok(false) => {

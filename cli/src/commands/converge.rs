@@ -69,13 +69,19 @@ pub fn run(args: &ConvergeArgs) -> ExitCode {
     }
     if !args.quiet {
         let num = |v: Option<f64>| v.map(|v| format!("{v:.3e}")).unwrap_or_else(|| "-".into());
-        println!(
+        say!(
             "{:>6} {:>9} {:>8} {:>9} {:>10} {:>10} {:>6}",
-            "spp", "render s", "Mrays", "ns/sample", "relMSE", "estimate", "ratio"
+            "spp",
+            "render s",
+            "Mrays",
+            "ns/sample",
+            "relMSE",
+            "estimate",
+            "ratio"
         );
         for r in &series.rows {
             let ratio = r.estimate.zip(r.rel_mse).map(|(e, t)| format!("{:.2}", e / t));
-            println!(
+            say!(
                 "{:>6} {:>9.3} {:>8.2} {:>9.1} {:>10} {:>10} {:>6}",
                 r.spp,
                 r.render_seconds,
@@ -86,7 +92,7 @@ pub fn run(args: &ConvergeArgs) -> ExitCode {
                 ratio.unwrap_or_else(|| "-".into())
             );
         }
-        println!("wrote {} and {}", csv.display(), plot.display());
+        say!("wrote {} and {}", csv.display(), plot.display());
     }
     ExitCode::SUCCESS
 }

@@ -39,20 +39,20 @@ pub fn run(args: &DiffArgs) -> ExitCode {
         );
         return ExitCode::from(EXIT_BAD_INPUT);
     };
-    println!(
+    say!(
         "{} against {} ({}×{})",
         args.image.display(),
         args.reference.display(),
         image.width,
         image.height
     );
-    println!("  relMSE     {:.6e}", e.rel_mse);
-    println!("  MSE        {:.6e}", e.mse);
-    println!("  RMSE       {:.6e}", e.mse.sqrt());
-    println!("  mean |a-r| {:.6e}", e.mean_abs);
-    println!("  max |a-r|  {:.6e} at pixel ({}, {})", e.max_abs.0, e.max_abs.1, e.max_abs.2);
-    println!("  mean       {:.6e} (image), {:.6e} (reference)", e.means.0, e.means.1);
-    println!("  non-finite {} (image), {} (reference)", e.non_finite, e.non_finite_reference);
+    say!("  relMSE     {:.6e}", e.rel_mse);
+    say!("  MSE        {:.6e}", e.mse);
+    say!("  RMSE       {:.6e}", e.mse.sqrt());
+    say!("  mean |a-r| {:.6e}", e.mean_abs);
+    say!("  max |a-r|  {:.6e} at pixel ({}, {})", e.max_abs.0, e.max_abs.1, e.max_abs.2);
+    say!("  mean       {:.6e} (image), {:.6e} (reference)", e.means.0, e.means.1);
+    say!("  non-finite {} (image), {} (reference)", e.non_finite, e.non_finite_reference);
     if let Some(out) = &args.output {
         let diff = image::RgbImage {
             width: image.width,

@@ -7,26 +7,35 @@ use std::process::ExitCode;
 pub async fn run(args: RemoteArgs) -> ExitCode {
     match crate::client::status(&args.coordinator).await {
         Ok(s) => {
-            println!(
-                "{:>6}  {:<28} {:<10} {:>13} {:>8}",
-                "job", "name", "state", "tiles", "priority"
-            );
+            say!("{:>6}  {:<28} {:<10} {:>13} {:>8}", "job", "name", "state", "tiles", "priority");
             for j in &s.jobs {
                 let tiles = format!("{}/{}", j.tiles_done, j.tiles_total);
-                println!(
+                say!(
                     "{:>6}  {:<28} {:<10} {:>13} {:>8}",
-                    j.job_id, j.name, j.state, tiles, j.priority
+                    j.job_id,
+                    j.name,
+                    j.state,
+                    tiles,
+                    j.priority
                 );
             }
-            println!();
-            println!(
+            say!();
+            say!(
                 "{:>6}  {:<28} {:>7} {:>9} {:>10}",
-                "worker", "name", "threads", "in flight", "tiles done"
+                "worker",
+                "name",
+                "threads",
+                "in flight",
+                "tiles done"
             );
             for w in &s.workers {
-                println!(
+                say!(
                     "{:>6}  {:<28} {:>7} {:>9} {:>10}",
-                    w.worker_id, w.name, w.threads, w.in_flight, w.tiles_done
+                    w.worker_id,
+                    w.name,
+                    w.threads,
+                    w.in_flight,
+                    w.tiles_done
                 );
             }
             ExitCode::SUCCESS

@@ -139,7 +139,7 @@ fn finish(args: &SubmitArgs, summary: embedded::RenderSummary) -> ExitCode {
     }
     if args.verbose && !args.quiet {
         for line in summary.features.describe() {
-            println!("{line}");
+            say!("{line}");
         }
     }
     if !args.quiet {
@@ -148,7 +148,7 @@ fn finish(args: &SubmitArgs, summary: embedded::RenderSummary) -> ExitCode {
             Some(e) => format!(", estimated relMSE {:.3e}", e.rel_mse),
             None => String::new(),
         };
-        println!(
+        say!(
             "{}: {}×{}, {} spp, {:.2} s ({:.2} s start-up), {:.1}M rays ({:.2} Mrays/s){error}",
             summary.output.display(),
             summary.image.width,
