@@ -18,11 +18,11 @@ use farm_coordinator::scheduler::{
 use farm_proto::default_in_flight;
 use farm_render::features::Features;
 use farm_render::{RenderOptions, Renderer};
-use std::collections::HashSet;
 use std::panic::{catch_unwind, AssertUnwindSafe};
 use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::mpsc;
-use std::sync::{Arc, Mutex, PoisonError};
+use std::sync::Arc;
 use std::time::Instant;
 
 /// Choices for one render.
@@ -93,8 +93,9 @@ struct LocalOutbox<R> {
     render: Arc<R>,
     pool: Arc<rayon::ThreadPool>,
     results: mpsc::Sender<LocalResult>,
-    /// Jobs whose queued tiles are to be dropped unrendered.
-    cancelled: Arc<Mutex<HashSet<JobId>>>,
+    /// Set when the (one) job is cancelled or failed: its queued tiles are
+    /// dropped unrendered.
+    cancelled: Arc<AtomicBool>,
     /// Tiles handed to the pool whose result has not been taken yet.
     outstanding: usize,
     updates: Vec<JobUpdate>,
@@ -109,8 +110,7 @@ where
         let (render, results, cancelled) =
             (self.render.clone(), self.results.clone(), self.cancelled.clone());
         self.pool.spawn_fifo(move || {
-            let dropped = cancelled.lock().unwrap_or_else(PoisonError::into_inner).contains(&a.job);
-            let outcome = if dropped {
+            let outcome = if cancelled.load(Ordering::Relaxed) {
                 Err("the job was cancelled".to_string())
             } else {
                 catch_unwind(AssertUnwindSafe(|| render(a.tile))).map_err(|p| {
@@ -127,8 +127,8 @@ where
         });
     }
 
-    fn cancel(&mut self, _worker: WorkerId, job: JobId) {
-        self.cancelled.lock().unwrap_or_else(PoisonError::into_inner).insert(job);
+    fn cancel(&mut self, _worker: WorkerId, _job: JobId) {
+        self.cancelled.store(true, Ordering::Relaxed);
     }
 
     fn disconnect(&mut self, _worker: WorkerId) {}

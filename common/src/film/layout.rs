@@ -40,15 +40,6 @@ impl SamplerKind {
             _ => (SamplerKind::Halton, false),
         }
     }
-
-    /// The parameters that set the sample count for this kind (read here,
-    /// so the renderer marks them used).
-    pub fn count_params(self) -> &'static [&'static str] {
-        match self {
-            SamplerKind::Stratified => &["xsamples", "ysamples"],
-            _ => &["pixelsamples"],
-        }
-    }
 }
 
 /// The most samples per pixel the max-min-distance sampler has matrices for.
@@ -152,11 +143,10 @@ pub fn default_filter_radius(name: &str) -> f32 {
     }
 }
 
-/// The radius a `PixelFilter` directive gives its filter (`xwidth`,
-/// `ywidth`, defaulting by name).
-pub fn filter_radius(filter: &Entity) -> Vec2 {
-    let p = Params::new(&filter.params);
-    let d = default_filter_radius(&filter.name);
+/// The radius a `PixelFilter` directive named `name` with parameters `p`
+/// gives its filter (`xwidth`, `ywidth`, defaulting by name).
+pub fn filter_radius(name: &str, p: &Params) -> Vec2 {
+    let d = default_filter_radius(name);
     Vec2::new(p.float("xwidth", d), p.float("ywidth", d))
 }
 
@@ -245,19 +235,21 @@ pub fn checked_layout(
 /// them; the renderer reports the filter's and sampler's other parameters.
 pub fn layout(desc: &SceneDescription, spp_override: Option<u32>) -> (FilmLayout, Vec<Warning>) {
     let (geometry, mut warnings) = FilmGeometry::from_description(desc);
-    let (sampler, samples, strata) = sample_count(&desc.sampler, spp_override, &mut warnings);
+    let params = Params::new(&desc.sampler.params);
+    let (sampler, samples, strata) =
+        sample_count(&desc.sampler, &params, spp_override, &mut warnings);
     (FilmLayout { geometry, sampler, samples, strata }, warnings)
 }
 
-/// The sampler `entity` names, its samples per pixel with `spp_override`
-/// applied and pbrt-v3's rounding (with its warnings), and for stratified
-/// its strata across and down.
+/// The sampler `entity` names, its samples per pixel read from `params`
+/// (the entity's) with `spp_override` applied and pbrt-v3's rounding (with
+/// its warnings), and for stratified its strata across and down.
 pub fn sample_count(
     entity: &Entity,
+    params: &Params,
     spp_override: Option<u32>,
     warnings: &mut Vec<Warning>,
 ) -> (SamplerKind, i64, (usize, usize)) {
-    let params = Params::new(&entity.params);
     let mut warn = |msg: String| warnings.push(Warning::at(&entity.loc, msg));
     let pixel_samples = |default: i32| -> i64 {
         let n = params.int("pixelsamples", default);

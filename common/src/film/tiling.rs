@@ -75,7 +75,8 @@ impl FilmGeometry {
         let diagonal = fp.float("diagonal", 35.0);
         let warnings = fp.unused_warnings();
 
-        let filter_radius = super::filter_radius(&desc.filter);
+        let filter_radius =
+            super::filter_radius(&desc.filter.name, &Params::new(&desc.filter.params));
         let mut film = FilmGeometry::new(
             Point2i::new(xres, yres),
             cropped,

@@ -10,8 +10,7 @@ use farm_common::scene::{Entity, Params, Warning};
 pub fn create(entity: &Entity, warnings: &mut Vec<Warning>) -> Filter {
     let params = Params::new(&entity.params);
     // The radius is the film layout's, which the coordinator tiles by.
-    let r = filter_radius(entity);
-    let _ = (params.float("xwidth", r.x), params.float("ywidth", r.y));
+    let r = filter_radius(&entity.name, &params);
     let filter = match entity.name.as_str() {
         "gaussian" => Filter::Gaussian(GaussianFilter::new(r, params.float("alpha", 2.0))),
         "mitchell" => {

@@ -22,11 +22,8 @@ pub fn create(
     warnings: &mut Vec<Warning>,
 ) -> Sampler {
     // The count is the film layout's, which the coordinator plans by.
-    let (kind, n, (xs, ys)) = sample_count(entity, spp_override, warnings);
     let params = Params::new(&entity.params);
-    for name in kind.count_params() {
-        let _ = params.int(name, 0);
-    }
+    let (kind, n, (xs, ys)) = sample_count(entity, &params, spp_override, warnings);
     let dimensions = || params.int("dimensions", 4).max(0) as usize;
     let sampler = match kind {
         SamplerKind::ZeroTwoSequence => {

@@ -29,7 +29,7 @@ pub fn create(
         "trianglemesh" => super::mesh::triangle_mesh(params, &pl, warnings),
         "loopsubdiv" => super::loopsubdiv::create(params, &pl, warnings),
         "heightfield" => super::heightfield::create(params, &pl, warnings),
-        "curve" => super::curve::create(params, &pl, warnings),
+        "curve" => super::curve_segments::create(params, &pl, warnings),
         _ => {
             super::mesh::warn(warnings, format!("Shape \"{name}\" unknown."));
             vec![]

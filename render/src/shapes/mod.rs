@@ -5,6 +5,7 @@
 mod cone;
 mod create;
 mod curve;
+mod curve_segments;
 mod cylinder;
 mod disk;
 mod efloat;
