@@ -7,7 +7,7 @@
 
 use crate::error::Error;
 use farm_common::film::{checked_layout, FilmGeometry, FilmTile, Limits};
-use farm_common::ids::{JobId, TileId, WorkerId};
+use farm_common::ids::{JobId, TileAttempt, TileId, WorkerId};
 use farm_common::image::{self, ImageMetadata, RgbImage};
 use farm_common::scene::Warning;
 use farm_common::stats::RayStats;
@@ -82,8 +82,7 @@ const LOCAL_WORKER: WorkerId = WorkerId(1);
 
 /// A tile rendered (or failed) by the in-process worker.
 struct LocalResult {
-    job: JobId,
-    tile: TileId,
+    key: TileAttempt,
     outcome: Result<(FilmTile, RayStats), String>,
 }
 
@@ -123,7 +122,7 @@ where
                 })
             };
             // A closed channel means the render was abandoned.
-            let _ = results.send(LocalResult { job: a.job, tile: a.tile, outcome });
+            let _ = results.send(LocalResult { key: a.key(), outcome });
         });
     }
 
@@ -209,11 +208,11 @@ where
         sched.heard_from(LOCAL_WORKER, Instant::now());
         match r.outcome {
             Ok((film_tile, stats)) => {
-                sched.tile_done(LOCAL_WORKER, r.job, r.tile, film_tile, stats, &mut out)
+                sched.tile_done(LOCAL_WORKER, r.key, film_tile, stats, &mut out)
             }
             Err(message) => {
-                last_failure = format!("tile {}: {message}", r.tile.0);
-                sched.tile_failed(LOCAL_WORKER, r.job, r.tile, message, true, &mut out)
+                last_failure = format!("tile {}: {message}", r.key.tile.0);
+                sched.tile_failed(LOCAL_WORKER, r.key, message, true, &mut out)
             }
         }
     }

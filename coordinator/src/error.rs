@@ -23,8 +23,14 @@ pub enum Error {
     #[error("the first message on a Work stream must be Hello")]
     NoHello,
     /// A Work stream for a worker id never registered.
-    #[error("unknown worker id: call RegisterWorker first")]
+    #[error("unknown worker id or session key: call RegisterWorker first")]
     UnknownWorker,
+    /// A second Work stream for a worker whose session is open.
+    #[error("this worker's session is already open")]
+    SessionOpen,
+    /// The system's random source failed.
+    #[error("no random numbers: {0}")]
+    Random(String),
     /// A worker stopped sending heartbeats.
     #[error("no heartbeat from this worker in time")]
     WorkerSilent,
@@ -61,6 +67,9 @@ pub enum Error {
     /// A film tile whose bounds or pixel count disagree with its tile's.
     #[error("tile {0} has the wrong dimensions")]
     WrongDimensions(u32),
+    /// A film tile whose sums no render could produce.
+    #[error("tile {0} is refused: {1}")]
+    BadPixels(u32, String),
     /// The gRPC transport failed.
     #[error("gRPC server: {0}")]
     Transport(#[from] tonic::transport::Error),
@@ -81,6 +90,7 @@ impl From<Error> for Status {
             | Error::NoManifest
             | Error::MissingAsset(_) => Status::failed_precondition(message),
             Error::ShuttingDown => Status::unavailable(message),
+            Error::SessionOpen => Status::already_exists(message),
             Error::WorkerSilent => Status::deadline_exceeded(message),
             Error::NoBlob | Error::NoJob(_) => Status::not_found(message),
             Error::EmptyWorkStream
@@ -91,8 +101,11 @@ impl From<Error> for Status {
             | Error::EmptyFilm
             | Error::TooLarge(_)
             | Error::UnknownTile(..)
-            | Error::WrongDimensions(_) => Status::invalid_argument(message),
-            Error::Transport(_) | Error::Scheduler(_) => Status::internal(message),
+            | Error::WrongDimensions(_)
+            | Error::BadPixels(..) => Status::invalid_argument(message),
+            Error::Transport(_) | Error::Scheduler(_) | Error::Random(_) => {
+                Status::internal(message)
+            }
         }
     }
 }

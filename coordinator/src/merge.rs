@@ -70,6 +70,9 @@ impl Film {
         {
             return Err(Error::WrongDimensions(id.0));
         }
+        if let Some(problem) = bad_pixels(&tile, self.geometry.signed_weights) {
+            return Err(Error::BadPixels(id.0, problem));
+        }
         if self.has(id) {
             return Ok(Accepted::Duplicate);
         }
@@ -108,6 +111,34 @@ impl Film {
             .collect();
         RgbImage { width: b.width() as usize, height: b.height() as usize, pixels }
     }
+}
+
+/// What is wrong with a tile's sums, if anything: every sum must be finite,
+/// and the weights non-negative unless the filter has negative lobes. A
+/// real render never sends anything else (the renderer drops NaN,
+/// infinite and negative samples), so such a tile comes from a broken or
+/// lying worker and must not reach the image.
+fn bad_pixels(tile: &FilmTile, signed_weights: bool) -> Option<String> {
+    let b = tile.pixel_bounds;
+    let at = |i: usize| {
+        let w = b.width().max(1) as usize;
+        (b.min.x + (i % w) as i32, b.min.y + (i / w) as i32)
+    };
+    for (i, p) in tile.pixels.iter().enumerate() {
+        let v = p.to_array();
+        if let Some(x) = v.iter().find(|x| !x.is_finite()) {
+            let (px, py) = at(i);
+            return Some(format!("pixel ({px}, {py}) has a non-finite sum {x}"));
+        }
+        if !signed_weights && (p.weight < 0.0 || p.second_weight < 0.0) {
+            let (px, py) = at(i);
+            return Some(format!(
+                "pixel ({px}, {py}) has a negative weight {} with a non-negative filter",
+                p.weight.min(p.second_weight)
+            ));
+        }
+    }
+    None
 }
 
 #[cfg(test)]
@@ -167,5 +198,21 @@ mod tests {
         let mut t = tile(&g, 0);
         t.pixels.pop();
         assert!(matches!(f.accept(TileId(0), t), Err(Error::WrongDimensions(0))));
+        for (k, v) in [(0, f32::NAN), (3, f32::INFINITY), (5, f32::NEG_INFINITY), (3, -0.5)] {
+            let mut t = tile(&g, 2);
+            let mut a = t.pixels[7].to_array();
+            a[k] = v;
+            t.pixels[7] = farm_common::film::Pixel::from_array(a);
+            let e = f.accept(TileId(2), t).unwrap_err();
+            assert!(matches!(e, Error::BadPixels(2, _)), "{e}");
+        }
+        assert!(!f.has(TileId(2)), "no bad tile is kept");
+        // With a filter that has negative lobes, a negative weight is real.
+        let mut signed = g.clone();
+        signed.signed_weights = true;
+        let mut f = Film::new(signed);
+        let mut t = tile(&g, 2);
+        t.pixels[7].weight = -0.5;
+        assert_eq!(f.accept(TileId(2), t).unwrap(), Accepted::New);
     }
 }

@@ -285,9 +285,13 @@ async fn fake_worker(url: String, tiles: Arc<Tiles>) {
         name: "fake".into(),
         threads: 1,
     };
-    let id = c.register_worker(reg).await.expect("register").into_inner().worker_id;
+    let reply = c.register_worker(reg).await.expect("register").into_inner();
     let (tx, rx) = mpsc::unbounded_channel();
-    let hello = v1::Hello { worker_id: id, max_in_flight: FAKE_IN_FLIGHT };
+    let hello = v1::Hello {
+        worker_id: reply.worker_id,
+        max_in_flight: FAKE_IN_FLIGHT,
+        session_key: reply.session_key,
+    };
     tx.send(v1::WorkerMessage { kind: Some(worker_message::Kind::Hello(hello)) }).expect("hello");
     let mut inbound = c.work(UnboundedReceiverStream::new(rx)).await.expect("work").into_inner();
     while let Ok(Some(msg)) = inbound.message().await {

@@ -4,6 +4,8 @@
 
 /// An in-process farm.
 pub mod cluster;
+/// A worker driven by hand.
+pub mod fake;
 
 use farm_cli::embedded::{self as submit, RenderSummary, SubmitOptions};
 use farm_common::image::RgbImage;

@@ -12,7 +12,6 @@ use farm_tests::cluster::TestCluster;
 use std::path::{Path, PathBuf};
 use std::time::Duration;
 use tokio::sync::mpsc;
-use tokio_stream::wrappers::UnboundedReceiverStream;
 
 const SPP: u32 = 2;
 
@@ -65,25 +64,12 @@ async fn a_worker_killed_mid_job_changes_no_bit() {
     cluster.stop().await;
 }
 
-/// Registers a hand-driven worker and opens its Work stream.
 async fn fake_worker(
     url: &str,
     max_in_flight: u32,
 ) -> (mpsc::UnboundedSender<v1::WorkerMessage>, tonic::Streaming<v1::CoordinatorMessage>) {
-    let mut c = CoordinatorClient::connect(url.to_string()).await.expect("connect");
-    let reg = v1::RegisterWorkerRequest {
-        protocol_version: PROTOCOL_VERSION,
-        name: "fake".into(),
-        threads: 1,
-    };
-    let id = c.register_worker(reg).await.expect("register").into_inner().worker_id;
-    let (tx, rx) = mpsc::unbounded_channel();
-    tx.send(v1::WorkerMessage {
-        kind: Some(worker_message::Kind::Hello(v1::Hello { worker_id: id, max_in_flight })),
-    })
-    .expect("hello");
-    let inbound = c.work(UnboundedReceiverStream::new(rx)).await.expect("work").into_inner();
-    (tx, inbound)
+    let w = farm_tests::fake::FakeWorker::connect(url, max_in_flight).await;
+    (w.tx, w.inbound)
 }
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 4)]
@@ -248,29 +234,33 @@ async fn an_oversize_film_is_refused_and_the_coordinator_lives_on() {
 async fn a_coordinator_shutting_down_tells_its_clients() {
     let cluster = TestCluster::start(0, Duration::from_millis(500)).await;
     let url = cluster.url.clone();
+    let (watching, watched) = tokio::sync::oneshot::channel();
     let job = tokio::spawn(async move {
         let opts = RemoteOptions { spp: Some(SPP), ..Default::default() };
-        client::submit(&url, &scene(), &opts, |_, _| {}).await
+        let mut watching = Some(watching);
+        client::submit(&url, &scene(), &opts, |_, _| {
+            if let Some(w) = watching.take() {
+                let _ = w.send(());
+            }
+        })
+        .await
     });
-    // Wait until the job is queued (there are no workers), then stop the
+    // Wait until the client watches its job (there are no workers: the
+    // first progress event comes when the watch opens), then stop the
     // coordinator. Other tests share the cores, so the client's parse and
-    // upload may take a while; stopping before the job is queued would test
-    // a refused connection instead.
-    let deadline = std::time::Instant::now() + Duration::from_secs(120);
-    while !client::status(&cluster.url).await.is_ok_and(|s| !s.jobs.is_empty()) {
-        assert!(std::time::Instant::now() < deadline, "the job was never queued");
-        tokio::time::sleep(Duration::from_millis(10)).await;
-    }
+    // upload may take a while; stopping before then would test a refused
+    // connection instead.
+    tokio::time::timeout(Duration::from_secs(120), watched)
+        .await
+        .expect("the job was never watched")
+        .expect("the client stopped before watching");
     cluster.stop().await;
     let err = tokio::time::timeout(Duration::from_secs(30), job)
         .await
         .expect("client returns")
         .expect("task");
-    // Either the job fails on the stream the client watches, or, when the
-    // shutdown comes between queueing and watching, the watch call itself
-    // is refused; both tell the user why.
     match err {
-        Err(e @ (farm_cli::Error::JobFailed(_) | farm_cli::Error::Rpc(_))) => {
+        Err(e @ farm_cli::Error::JobFailed(_)) => {
             assert!(e.to_string().contains("shutting down"), "{e}")
         }
         other => {

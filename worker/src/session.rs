@@ -209,7 +209,11 @@ impl Worker {
     ) -> SessionEnd {
         // The outgoing stream: Hello first, then results and heartbeats.
         let (tx, rx) = mpsc::channel::<WorkerMessage>(self.max_in_flight as usize + 16);
-        let hello = Hello { worker_id: reply.worker_id, max_in_flight: self.max_in_flight };
+        let hello = Hello {
+            worker_id: reply.worker_id,
+            max_in_flight: self.max_in_flight,
+            session_key: reply.session_key.clone(),
+        };
         let _ = tx.send(WorkerMessage { kind: Some(ToCoordinator::Hello(hello)) }).await;
         let mut stream_client = client.clone();
         let opened = tokio::select! {
@@ -379,7 +383,14 @@ mod tests {
         }));
         let mut s = sessions.recv().await.unwrap();
         let hello = s.from_worker.recv().await.unwrap().kind;
-        assert_eq!(hello, Some(ToCoordinator::Hello(Hello { worker_id: 7, max_in_flight: 10 })));
+        assert_eq!(
+            hello,
+            Some(ToCoordinator::Hello(Hello {
+                worker_id: 7,
+                max_in_flight: 10,
+                session_key: vec![7; 32]
+            }))
+        );
 
         // Four tiles of one job: each comes back once, with film and stats.
         for tile in 0..4 {

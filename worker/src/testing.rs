@@ -112,7 +112,11 @@ impl Coordinator for FakeCoordinator {
         if self.refuse || r.protocol_version != farm_proto::PROTOCOL_VERSION {
             return Err(Status::failed_precondition("protocol version 99 expected"));
         }
-        Ok(Response::new(RegisterWorkerResponse { worker_id: 7, heartbeat_interval_ms: 50 }))
+        Ok(Response::new(RegisterWorkerResponse {
+            worker_id: 7,
+            heartbeat_interval_ms: 50,
+            session_key: vec![7; 32],
+        }))
     }
 
     type WorkStream = Stream<CoordinatorMessage>;

@@ -34,6 +34,11 @@ pub struct FilmGeometry {
     /// It sets how a render turns its half-images into an error estimate.
     #[serde(default)]
     pub independent_samples: bool,
+    /// Whether the filter has negative lobes (`mitchell`, `sinc`), so a
+    /// pixel's sum of weights may be negative; with any other filter a
+    /// negative weight can only come from a broken or lying worker.
+    #[serde(default)]
+    pub signed_weights: bool,
 }
 
 impl FilmGeometry {
@@ -87,6 +92,7 @@ impl FilmGeometry {
             diagonal,
         );
         film.independent_samples = desc.sampler.name == "random";
+        film.signed_weights = matches!(desc.filter.name.as_str(), "mitchell" | "sinc");
         (film, warnings)
     }
 
@@ -126,6 +132,7 @@ impl FilmGeometry {
             filename,
             diagonal,
             independent_samples: false,
+            signed_weights: false,
         }
     }
 

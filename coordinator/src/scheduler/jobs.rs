@@ -4,7 +4,7 @@
 use super::{FinishedJob, JobUpdate, Outbox, Scheduler};
 use crate::merge::{Accepted, Film};
 use farm_common::film::{FilmGeometry, FilmTile};
-use farm_common::ids::{JobId, TileId, WorkerId};
+use farm_common::ids::{JobId, TileAttempt, WorkerId};
 use farm_common::stats::RayStats;
 use std::collections::{HashMap, HashSet, VecDeque};
 use std::time::{Duration, Instant};
@@ -126,33 +126,57 @@ impl Scheduler {
         id
     }
 
-    /// A rendered tile. Results for unknown jobs, tiles already in, or bad
-    /// tiles are refused with a logged reason.
+    /// Whether `worker` holds hand-out `key`: only the holder's answer to a
+    /// tile counts, so a result for a tile never assigned, assigned to
+    /// another worker, or an earlier attempt of it changes nothing.
+    fn holds(&self, worker: WorkerId, key: TileAttempt) -> bool {
+        self.jobs.get(&key.job).is_some_and(|j| {
+            j.state.is_active() && j.in_flight.get(&key.tile.0) == Some(&(worker, key.attempt))
+        })
+    }
+
+    /// Logs why an answer from `worker` to `key` was ignored.
+    fn ignored(&self, worker: WorkerId, key: TileAttempt, what: &str) {
+        let (job, tile, attempt) = (key.job.0, key.tile.0, key.attempt);
+        match self.jobs.get(&key.job) {
+            // A job ended while the answer was on its way; a worker declared
+            // lost may still have had a few messages in flight.
+            Some(j) if !j.state.is_active() => {
+                debug!(job, tile, "{what} for a finished job ignored")
+            }
+            _ if !self.workers.contains_key(&worker) => {
+                debug!(worker = worker.0, job, tile, "{what} from a lost worker ignored")
+            }
+            None => warn!(worker = worker.0, job, tile, "{what} for an unknown job refused"),
+            Some(_) => warn!(
+                worker = worker.0,
+                job, tile, attempt, "{what} for a tile this worker does not hold refused"
+            ),
+        }
+    }
+
+    /// A rendered tile. Only the worker holding that hand-out may answer
+    /// it; a tile of the wrong size or with impossible sums is a retryable
+    /// failure of that worker.
     pub fn tile_done(
         &mut self,
         worker: WorkerId,
-        job: JobId,
-        tile: TileId,
+        key: TileAttempt,
         film_tile: FilmTile,
         stats: RayStats,
         out: &mut impl Outbox,
     ) {
+        if !self.holds(worker, key) {
+            self.ignored(worker, key, "tile result");
+            return;
+        }
+        let (job, tile) = (key.job, key.tile);
         self.release(worker, job, tile.0);
-        let Some(j) = self.jobs.get_mut(&job) else {
-            warn!(worker = worker.0, job = job.0, "result for an unknown job ignored");
-            return;
-        };
-        let Some(film) = j.film.as_mut().filter(|_| j.state.is_active()) else {
-            debug!(job = job.0, tile = tile.0, "result for a finished job ignored");
-            return;
-        };
+        let j = self.jobs.get_mut(&job).expect("held tiles belong to known jobs");
+        let film = j.film.as_mut().expect("active jobs have a film");
         match film.accept(tile, film_tile) {
             Ok(Accepted::New) => {
-                // A tile is pending, in flight or in: only a late result for a
-                // requeued tile can still be in the queue.
-                if j.in_flight.remove(&tile.0).is_none() {
-                    j.pending.retain(|&t| t != tile.0);
-                }
+                j.in_flight.remove(&tile.0);
                 j.stats.add(&stats);
                 j.done_tiles += 1;
                 if let Some(w) = self.workers.get_mut(&worker) {
@@ -163,7 +187,7 @@ impl Scheduler {
                 let now = Instant::now();
                 let step = (total / 200).max(1);
                 if j.done_tiles == total
-                    || j.done_tiles % step == 0
+                    || j.done_tiles.is_multiple_of(step)
                     || now.duration_since(j.last_progress) >= PROGRESS_EVERY
                 {
                     j.last_progress = now;
@@ -182,6 +206,8 @@ impl Scheduler {
                 }
             }
             Ok(Accepted::Duplicate) => {
+                // A held tile is never in the film; keep the books straight anyway.
+                j.in_flight.remove(&tile.0);
                 debug!(job = job.0, tile = tile.0, "duplicate tile result ignored")
             }
             Err(e) => {
@@ -199,24 +225,22 @@ impl Scheduler {
         self.fill(out);
     }
 
-    /// A tile a worker could not render.
+    /// A tile a worker could not render; only the holder of that hand-out
+    /// may say so.
     pub fn tile_failed(
         &mut self,
         worker: WorkerId,
-        job: JobId,
-        tile: TileId,
+        key: TileAttempt,
         message: String,
         retryable: bool,
         out: &mut impl Outbox,
     ) {
-        self.release(worker, job, tile.0);
-        if self.jobs.get(&job).is_some_and(|j| {
-            j.state.is_active() && j.in_flight.get(&tile.0).is_some_and(|(w, _)| *w == worker)
-        }) {
-            self.record_failure(worker, job, tile.0, message, retryable, out);
-        } else {
-            debug!(worker = worker.0, job = job.0, tile = tile.0, "stale failure ignored");
+        if !self.holds(worker, key) {
+            self.ignored(worker, key, "tile failure");
+            return;
         }
+        self.release(worker, key.job, key.tile.0);
+        self.record_failure(worker, key.job, key.tile.0, message, retryable, out);
         self.fill(out);
     }
 

@@ -31,6 +31,8 @@ pub struct SchedulerConfig {
     pub max_tile_failures: usize,
     /// A worker that fails this many tiles of a job gets no more of them.
     pub max_worker_failures: u32,
+    /// The most tiles one worker may hold at once, whatever it asks for.
+    pub max_in_flight: u32,
 }
 
 impl Default for SchedulerConfig {
@@ -39,6 +41,7 @@ impl Default for SchedulerConfig {
             worker_timeout: Duration::from_secs(6),
             max_tile_failures: 3,
             max_worker_failures: 3,
+            max_in_flight: 256,
         }
     }
 }

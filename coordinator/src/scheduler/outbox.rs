@@ -2,7 +2,7 @@
 //! updates to a job's watchers.
 
 use crate::estimate::ErrorEstimate;
-use farm_common::ids::{JobId, TileId, WorkerId};
+use farm_common::ids::{JobId, TileAttempt, TileId, WorkerId};
 use farm_common::image::RgbImage;
 use farm_common::stats::RayStats;
 
@@ -19,6 +19,13 @@ pub struct Assignment {
     pub scene_hash: Vec<u8>,
     /// Samples per pixel override (0 = the scene's).
     pub spp: u32,
+}
+
+impl Assignment {
+    /// The hand-out a result must answer.
+    pub fn key(&self) -> TileAttempt {
+        TileAttempt { job: self.job, tile: self.tile, attempt: self.attempt }
+    }
 }
 
 /// What watchers of a job hear.

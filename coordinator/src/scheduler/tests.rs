@@ -3,7 +3,7 @@
 use super::*;
 use farm_common::film::{FilmGeometry, FilmTile};
 use farm_common::geometry::{Bounds2i, Point2i, Vec2};
-use farm_common::ids::TileId;
+use farm_common::ids::{TileAttempt, TileId};
 use farm_common::image::RgbImage;
 use farm_common::stats::RayStats;
 use farm_common::Spectrum;
@@ -91,7 +91,7 @@ fn drain(s: &mut Scheduler, out: &mut Recorder, mut pick: impl FnMut(usize) -> u
     let mut queue = out.take();
     while !queue.is_empty() {
         let (w, a) = queue.remove(pick(queue.len()) % queue.len());
-        s.tile_done(w, a.job, a.tile, render(&g, a.tile), RayStats::default(), out);
+        s.tile_done(w, a.key(), render(&g, a.tile), RayStats::default(), out);
         queue.extend(out.take());
     }
 }
@@ -143,7 +143,7 @@ fn a_lost_worker_costs_a_retry_not_the_image() {
         for (w, a) in batch {
             if w == WorkerId(1) {
                 s.heard_from(WorkerId(1), t0 + Duration::from_secs(10));
-                s.tile_done(w, a.job, a.tile, render(&g, a.tile), RayStats::default(), &mut out);
+                s.tile_done(w, a.key(), render(&g, a.tile), RayStats::default(), &mut out);
             } else {
                 held_by_2 += 1;
             }
@@ -157,7 +157,8 @@ fn a_lost_worker_costs_a_retry_not_the_image() {
     assert!(out.image(job) == Some(reference.clone()), "image differs");
     // A late result from the lost worker changes nothing.
     let late = render(&g, TileId(0));
-    s.tile_done(WorkerId(2), job, TileId(0), late, RayStats::default(), &mut out);
+    let key = TileAttempt { job, tile: TileId(0), attempt: 0 };
+    s.tile_done(WorkerId(2), key, late, RayStats::default(), &mut out);
     assert_eq!(s.job_state(job), Some(&JobState::Done));
 }
 
@@ -170,12 +171,13 @@ fn duplicates_unknown_jobs_and_bad_tiles_are_ignored() {
     let job = s.submit(spec(0), &mut out);
     let g = geometry();
     let (w, a) = out.take().remove(0);
-    s.tile_done(w, JobId(999), a.tile, render(&g, a.tile), RayStats::default(), &mut out);
+    let unknown = TileAttempt { job: JobId(999), ..a.key() };
+    s.tile_done(w, unknown, render(&g, a.tile), RayStats::default(), &mut out);
     // A tile of the wrong size is refused and retried.
-    s.tile_done(w, a.job, a.tile, render(&g, TileId(a.tile.0 + 1)), RayStats::default(), &mut out);
+    s.tile_done(w, a.key(), render(&g, TileId(a.tile.0 + 1)), RayStats::default(), &mut out);
     let (w, a) = out.take().remove(0);
-    s.tile_done(w, a.job, a.tile, render(&g, a.tile), RayStats::default(), &mut out);
-    s.tile_done(w, a.job, a.tile, render(&g, a.tile), RayStats::default(), &mut out);
+    s.tile_done(w, a.key(), render(&g, a.tile), RayStats::default(), &mut out);
+    s.tile_done(w, a.key(), render(&g, a.tile), RayStats::default(), &mut out);
     drain(&mut s, &mut out, |_| 0);
     assert!(out.image(job) == Some(reference.clone()), "image differs");
 }
@@ -192,9 +194,9 @@ fn a_tile_failing_on_three_workers_fails_the_job_with_their_messages() {
     for _ in 0..20 {
         for (w, a) in out.take() {
             if a.tile == TileId(5) {
-                s.tile_failed(w, a.job, a.tile, format!("boom on {}", w.0), true, &mut out);
+                s.tile_failed(w, a.key(), format!("boom on {}", w.0), true, &mut out);
             } else {
-                s.tile_done(w, a.job, a.tile, render(&g, a.tile), RayStats::default(), &mut out);
+                s.tile_done(w, a.key(), render(&g, a.tile), RayStats::default(), &mut out);
             }
         }
     }
@@ -213,7 +215,7 @@ fn a_worker_failing_repeatedly_gets_no_more_of_that_job() {
     let job = s.submit(spec(0), &mut out);
     for _ in 0..3 {
         let (w, a) = out.take().remove(0);
-        s.tile_failed(w, a.job, a.tile, "flaky".into(), true, &mut out);
+        s.tile_failed(w, a.key(), "flaky".into(), true, &mut out);
     }
     assert!(out.take().is_empty(), "no more tiles for the flaky worker");
     s.worker_joined(WorkerId(2), "good".into(), 1, 1, Instant::now(), &mut out);
@@ -232,4 +234,89 @@ fn higher_priority_runs_first_then_submission_order() {
     assert!(s.cancel(high, &mut out));
     assert_eq!(out.cancelled, vec![(WorkerId(1), high)]);
     assert_eq!(out.take()[0].1.job, low);
+}
+
+#[test]
+fn only_the_holder_of_a_hand_out_may_answer_it() {
+    let reference = reference_image();
+    let mut s = Scheduler::new(SchedulerConfig::default());
+    let mut out = Recorder::default();
+    let t0 = Instant::now();
+    s.worker_joined(WorkerId(1), "honest".into(), 1, 1, t0, &mut out);
+    s.worker_joined(WorkerId(2), "forger".into(), 1, 1, t0, &mut out);
+    let job = s.submit(spec(0), &mut out);
+    let g = geometry();
+    let total = g.tile_count();
+    let held: Vec<(WorkerId, Assignment)> = out.take();
+    let (w1, a1) = held.iter().find(|(w, _)| *w == WorkerId(1)).cloned().unwrap();
+    // Made-up pixels for every tile of the job, from a worker that holds
+    // one other tile: none is merged, and none fails the job.
+    let poison = |g: &FilmGeometry, t: TileId| {
+        let mut f = render(g, t);
+        for p in &mut f.pixels {
+            p.contrib = [1e6; 3];
+        }
+        f
+    };
+    for t in 0..total {
+        for attempt in 0..3 {
+            let key = TileAttempt { job, tile: TileId(t), attempt };
+            if key == a1.key() || held.iter().any(|(w, a)| *w == WorkerId(2) && a.key() == key) {
+                continue;
+            }
+            s.tile_done(WorkerId(2), key, poison(&g, TileId(t)), RayStats::default(), &mut out);
+            s.tile_failed(WorkerId(2), key, "forged".into(), false, &mut out);
+        }
+    }
+    // The honest worker's tile, answered as an earlier attempt, is refused too.
+    let stale = TileAttempt { attempt: a1.attempt + 1, ..a1.key() };
+    s.tile_done(w1, stale, poison(&g, a1.tile), RayStats::default(), &mut out);
+    assert_eq!(s.status().0[0].done, 0, "nothing merged from forged results");
+    assert_eq!(s.job_state(job), Some(&JobState::Running));
+    assert!(out.take().is_empty(), "no slot was freed by a forged answer");
+    // Everyone answers what they hold honestly: the image is the reference.
+    for (w, a) in held {
+        s.tile_done(w, a.key(), render(&g, a.tile), RayStats::default(), &mut out);
+    }
+    drain(&mut s, &mut out, |_| 0);
+    assert!(out.image(job) == Some(reference), "image differs");
+}
+
+#[test]
+fn a_worker_cannot_hoard_a_job_by_asking_for_every_tile() {
+    let config = SchedulerConfig { max_in_flight: 8, ..Default::default() };
+    let mut s = Scheduler::new(config);
+    let mut out = Recorder::default();
+    s.worker_joined(WorkerId(1), "greedy".into(), 1, u32::MAX, Instant::now(), &mut out);
+    s.worker_joined(WorkerId(2), "modest".into(), 1, 2, Instant::now(), &mut out);
+    let _ = s.submit(spec(0), &mut out);
+    let out_tiles = out.take();
+    let greedy = out_tiles.iter().filter(|(w, _)| *w == WorkerId(1)).count();
+    let modest = out_tiles.iter().filter(|(w, _)| *w == WorkerId(2)).count();
+    assert!(geometry().tile_count() > 10);
+    assert_eq!((greedy, modest), (8, 2));
+    assert_eq!(s.status().1[0].in_flight, 8);
+}
+
+#[test]
+fn impossible_sums_are_a_retryable_failure_of_the_worker_that_sent_them() {
+    let reference = reference_image();
+    let mut s = Scheduler::new(SchedulerConfig::default());
+    let mut out = Recorder::default();
+    s.worker_joined(WorkerId(1), "a".into(), 1, 1, Instant::now(), &mut out);
+    let job = s.submit(spec(0), &mut out);
+    let g = geometry();
+    let (w, a) = out.take().remove(0);
+    let mut bad = render(&g, a.tile);
+    bad.pixels[3].contrib[1] = f32::NAN;
+    s.tile_done(w, a.key(), bad, RayStats::default(), &mut out);
+    // The worker is handed another tile (it failed that one), which it
+    // poisons too; then it renders honestly.
+    let (w2, a2) = out.take().remove(0);
+    assert_eq!(s.job_state(job), Some(&JobState::Running));
+    let mut bad = render(&g, a2.tile);
+    bad.pixels[0].weight = -1.0;
+    s.tile_done(w2, a2.key(), bad, RayStats::default(), &mut out);
+    drain(&mut s, &mut out, |_| 0);
+    assert!(out.image(job) == Some(reference), "image differs");
 }

@@ -31,7 +31,9 @@ pub struct WorkerRow {
 }
 
 impl Scheduler {
-    /// A worker opened its session.
+    /// A worker opened its session, asking to hold `max_in_flight` tiles at
+    /// once; it gets at most the configured cap, so no worker can hoard a
+    /// job by asking for more.
     pub fn worker_joined(
         &mut self,
         id: WorkerId,
@@ -41,11 +43,12 @@ impl Scheduler {
         now: Instant,
         out: &mut impl Outbox,
     ) {
+        let max_in_flight = max_in_flight.clamp(1, self.config.max_in_flight.max(1));
         info!(worker = id.0, %name, threads, max_in_flight, "worker joined");
         let w = Worker {
             name,
             threads,
-            max_in_flight: max_in_flight.max(1),
+            max_in_flight,
             in_flight: HashSet::new(),
             last_seen: now,
             tiles_done: 0,

@@ -4,7 +4,7 @@ use super::ServerConfig;
 use crate::error::Error;
 use crate::scheduler::{Assignment, JobRow, JobSpec, JobUpdate, Outbox, Scheduler, WorkerRow};
 use farm_common::film::FilmTile;
-use farm_common::ids::{JobId, TileId, WorkerId};
+use farm_common::ids::{JobId, TileAttempt, TileId, WorkerId};
 use farm_common::stats::RayStats;
 use farm_proto::convert::{image_chunks, ImageFacts};
 use farm_proto::v1::{self, coordinator_message, job_event, tile_result, worker_message};
@@ -172,11 +172,11 @@ pub async fn run(mut rx: mpsc::UnboundedReceiver<Event>, config: ServerConfig) {
             Event::FromWorker { id, msg } => {
                 sched.heard_from(id, now);
                 match msg {
-                    FromWorker::Tile { job, tile, film_tile, stats } => {
-                        sched.tile_done(id, job, tile, film_tile, stats, &mut out)
+                    FromWorker::Tile { key, film_tile, stats } => {
+                        sched.tile_done(id, key, film_tile, stats, &mut out)
                     }
-                    FromWorker::Failed { job, tile, message, retryable } => {
-                        sched.tile_failed(id, job, tile, message, retryable, &mut out)
+                    FromWorker::Failed { key, message, retryable } => {
+                        sched.tile_failed(id, key, message, retryable, &mut out)
                     }
                     FromWorker::Alive => {}
                 }
@@ -227,10 +227,8 @@ pub async fn run(mut rx: mpsc::UnboundedReceiver<Event>, config: ServerConfig) {
 pub enum FromWorker {
     /// A rendered tile.
     Tile {
-        /// The job.
-        job: JobId,
-        /// The tile.
-        tile: TileId,
+        /// The hand-out it answers.
+        key: TileAttempt,
         /// Its sums.
         film_tile: FilmTile,
         /// Its rays.
@@ -238,10 +236,8 @@ pub enum FromWorker {
     },
     /// A tile that could not be rendered (or whose result was malformed).
     Failed {
-        /// The job.
-        job: JobId,
-        /// The tile.
-        tile: TileId,
+        /// The hand-out it answers.
+        key: TileAttempt,
         /// Why.
         message: String,
         /// Whether another worker may succeed.
@@ -255,19 +251,20 @@ impl FromWorker {
     /// Decodes a worker's message; malformed results become retryable failures.
     pub fn decode(id: WorkerId, kind: Option<worker_message::Kind>) -> FromWorker {
         let Some(worker_message::Kind::Result(r)) = kind else { return FromWorker::Alive };
-        let (job, tile) = (JobId(r.job_id), TileId(r.tile));
+        let key = TileAttempt { job: JobId(r.job_id), tile: TileId(r.tile), attempt: r.attempt };
+        let (job, tile) = (key.job, key.tile);
         let stats = r.stats.as_ref().map(RayStats::from).unwrap_or_default();
-        let failed = |message: String| FromWorker::Failed { job, tile, message, retryable: true };
+        let failed = |message: String| FromWorker::Failed { key, message, retryable: true };
         match r.outcome {
             Some(tile_result::Outcome::FilmTile(ft)) => match FilmTile::try_from(&ft) {
-                Ok(film_tile) => FromWorker::Tile { job, tile, film_tile, stats },
+                Ok(film_tile) => FromWorker::Tile { key, film_tile, stats },
                 Err(e) => {
                     warn!(worker = id.0, job = job.0, tile = tile.0, error = %e, "malformed film tile refused");
                     failed(format!("malformed film tile: {e}"))
                 }
             },
             Some(tile_result::Outcome::Failure(f)) => {
-                FromWorker::Failed { job, tile, message: f.message, retryable: f.retryable }
+                FromWorker::Failed { key, message: f.message, retryable: f.retryable }
             }
             None => {
                 warn!(

@@ -28,7 +28,7 @@ type BoxStream<T> = Pin<Box<dyn Stream<Item = Result<T, Status>> + Send>>;
 pub struct CoordinatorService {
     events: mpsc::UnboundedSender<Event>,
     blobs: BlobStore,
-    registered: Arc<Mutex<HashMap<WorkerId, (String, u32)>>>,
+    registered: Arc<Mutex<Registry>>,
     next_worker: Arc<AtomicU64>,
     heartbeat: Duration,
     limits: Limits,
@@ -47,8 +47,63 @@ impl CoordinatorService {
         }
     }
 
+    fn registry(&self) -> std::sync::MutexGuard<'_, Registry> {
+        // The registry's invariants hold between statements: a panic
+        // elsewhere cannot leave it half-changed.
+        self.registered.lock().unwrap_or_else(|p| p.into_inner())
+    }
+
     fn send(&self, ev: Event) -> Result<(), Status> {
         self.events.send(ev).map_err(|_| Error::ShuttingDown.into())
+    }
+}
+
+/// Workers that registered, each with the secret its session must present.
+#[derive(Default)]
+struct Registry {
+    workers: HashMap<WorkerId, Registration>,
+}
+
+struct Registration {
+    name: String,
+    threads: u32,
+    key: [u8; 32],
+    at: std::time::Instant,
+    /// Whether its Work stream is open.
+    live: bool,
+}
+
+/// A registration whose worker never opens its session is forgotten after
+/// this long, so registrations alone cannot fill the coordinator's memory.
+const UNUSED_REGISTRATION: Duration = Duration::from_secs(60);
+
+impl Registry {
+    fn register(&mut self, id: WorkerId, name: String, threads: u32) -> Result<[u8; 32], Status> {
+        let now = std::time::Instant::now();
+        self.workers.retain(|_, r| r.live || now.duration_since(r.at) < UNUSED_REGISTRATION);
+        let mut key = [0u8; 32];
+        getrandom::fill(&mut key).map_err(|e| Error::Random(e.to_string()))?;
+        self.workers.insert(id, Registration { name, threads, key, at: now, live: false });
+        Ok(key)
+    }
+
+    /// Opens the session of `id` for the holder of `key`: refused for an
+    /// unknown id, a wrong key, or a session already open.
+    fn open(&mut self, id: WorkerId, key: &[u8]) -> Result<(String, u32), Error> {
+        let r = self.workers.get_mut(&id).ok_or(Error::UnknownWorker)?;
+        if !constant_time_eq::constant_time_eq(&r.key, key) {
+            return Err(Error::UnknownWorker);
+        }
+        if r.live {
+            return Err(Error::SessionOpen);
+        }
+        r.live = true;
+        Ok((r.name.clone(), r.threads))
+    }
+
+    /// The session of `id` ended: the worker registers again to come back.
+    fn close(&mut self, id: WorkerId) {
+        self.workers.remove(&id);
     }
 }
 
@@ -77,12 +132,11 @@ impl Coordinator for CoordinatorService {
         }
         let id = WorkerId(self.next_worker.fetch_add(1, Ordering::Relaxed));
         info!(worker = id.0, name = %r.name, threads = r.threads, "worker registered");
-        if let Ok(mut m) = self.registered.lock() {
-            m.insert(id, (r.name, r.threads));
-        }
+        let key = self.registry().register(id, r.name, r.threads)?;
         Ok(Response::new(v1::RegisterWorkerResponse {
             worker_id: id.0,
             heartbeat_interval_ms: self.heartbeat.as_millis() as u32,
+            session_key: key.to_vec(),
         }))
     }
 
@@ -98,18 +152,21 @@ impl Coordinator for CoordinatorService {
             return Err(Error::NoHello.into());
         };
         let id = WorkerId(hello.worker_id);
-        let known = self.registered.lock().ok().and_then(|m| m.get(&id).cloned());
-        let Some((name, threads)) = known else {
-            return Err(Error::UnknownWorker.into());
-        };
+        let (name, threads) = self.registry().open(id, &hello.session_key).inspect_err(|e| {
+            warn!(worker = id.0, error = %e, "work stream refused");
+        })?;
         let (tx, rx) = mpsc::unbounded_channel();
         let max_in_flight = if hello.max_in_flight == 0 {
             default_in_flight(threads as usize)
         } else {
             hello.max_in_flight
         };
-        self.send(Event::WorkerJoined { id, name, threads, max_in_flight, tx })?;
+        if let Err(e) = self.send(Event::WorkerJoined { id, name, threads, max_in_flight, tx }) {
+            self.registry().close(id);
+            return Err(e);
+        }
         let events = self.events.clone();
+        let registered = self.registered.clone();
         tokio::spawn(async move {
             loop {
                 match inbound.message().await {
@@ -127,6 +184,7 @@ impl Coordinator for CoordinatorService {
                 }
             }
             let _ = events.send(Event::WorkerGone { id });
+            registered.lock().unwrap_or_else(|p| p.into_inner()).close(id);
         });
         Ok(Response::new(Box::pin(UnboundedReceiverStream::new(rx))))
     }

@@ -1,0 +1,130 @@
+//! A worker that lies: forged, unassigned, stale and non-finite results, a
+//! second stream with another worker's id, and a request for every tile.
+//! None of it reaches the image, and honest workers finish the job bit for
+//! bit as the embedded render.
+
+use farm_cli::client::{self, RemoteOptions};
+use farm_cli::embedded::{self as submit, SubmitOptions};
+use farm_common::film::{FilmGeometry, FilmTile};
+use farm_common::ids::TileId;
+use farm_common::image::RgbImage;
+use farm_proto::v1;
+use farm_tests::cluster::TestCluster;
+use farm_tests::fake::{open_session, FakeWorker};
+use std::path::{Path, PathBuf};
+use std::time::Duration;
+
+const SPP: u32 = 2;
+
+fn scene() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../scenes/example.pbrt")
+}
+
+fn bits(img: &RgbImage) -> Vec<u32> {
+    img.pixels.iter().flat_map(|p| p.map(f32::to_bits)).collect()
+}
+
+fn embedded() -> RgbImage {
+    let opts = SubmitOptions { spp: Some(SPP), threads: 2, ..Default::default() };
+    submit::render(&scene(), &opts, |_| {}).expect("embedded render").image
+}
+
+fn geometry() -> FilmGeometry {
+    let (desc, _) = farm_scene::parse_file(&scene()).expect("scene");
+    farm_common::film::layout(&desc, Some(SPP)).0.geometry
+}
+
+/// A tile of the right size whose every pixel is `value` with weight `weight`.
+fn forged(g: &FilmGeometry, tile: u32, value: f32, weight: f32) -> v1::FilmTile {
+    let mut t = FilmTile::new(g.tile_pixel_bounds(TileId(tile)));
+    for p in &mut t.pixels {
+        p.contrib = [value; 3];
+        p.weight = weight;
+    }
+    v1::FilmTile::from(&t)
+}
+
+fn result(job_id: u64, tile: u32, attempt: u32, film_tile: v1::FilmTile) -> v1::TileResult {
+    v1::TileResult {
+        job_id,
+        tile,
+        attempt,
+        outcome: Some(v1::tile_result::Outcome::FilmTile(film_tile)),
+        stats: None,
+    }
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 4)]
+async fn forged_unassigned_non_finite_and_hijacked_results_leave_the_image_unchanged() {
+    let reference = bits(&embedded());
+    let g = geometry();
+    let cluster = TestCluster::start(0, Duration::from_millis(300)).await;
+    // The liar asks for every tile there is.
+    let mut liar = FakeWorker::connect(&cluster.url, u32::MAX).await;
+    let url = cluster.url.clone();
+    let job = tokio::spawn(async move {
+        let opts = RemoteOptions { spp: Some(SPP), ..Default::default() };
+        client::submit(&url, &scene(), &opts, |_, _| {}).await
+    });
+    let first = liar.assignment().await;
+    let held = {
+        let mut held = vec![first.clone()];
+        // Whatever it asked for, it holds at most the coordinator's cap.
+        while let Ok(Ok(a)) =
+            tokio::time::timeout(Duration::from_millis(300), liar.inbound.message()).await
+        {
+            if let Some(v1::coordinator_message::Kind::Assign(a)) = a.and_then(|m| m.kind) {
+                held.push(a);
+            }
+        }
+        held
+    };
+    assert!((held.len() as u32) < g.tile_count(), "the liar holds the whole job");
+    let holds = |t: u32| held.iter().any(|a| a.tile == t);
+    // Made-up pixels for every tile it does not hold, as several attempts,
+    // and a forged non-retryable failure of each.
+    for t in (0..g.tile_count()).filter(|&t| !holds(t)) {
+        for attempt in 0..2 {
+            liar.send(result(first.job_id, t, attempt, forged(&g, t, 1e6, 1.0)));
+            liar.send(v1::TileResult {
+                outcome: Some(v1::tile_result::Outcome::Failure(v1::TileFailure {
+                    message: "forged".into(),
+                    retryable: false,
+                })),
+                ..result(first.job_id, t, attempt, forged(&g, t, 0.0, 0.0))
+            });
+        }
+    }
+    // A tile far outside the film, and its own tiles as a later attempt.
+    liar.send(result(first.job_id, 99_999, 0, forged(&g, 0, 1.0, 1.0)));
+    for a in &held {
+        liar.send(result(a.job_id, a.tile, a.attempt + 1, forged(&g, a.tile, 1e6, 1.0)));
+    }
+    // Its own tiles with NaN, infinite and negative-weight sums.
+    for (i, a) in held.iter().enumerate() {
+        let (v, w) = [(f32::NAN, 1.0), (f32::INFINITY, 1.0), (1.0, -3.0)][i % 3];
+        liar.send(result(a.job_id, a.tile, a.attempt, forged(&g, a.tile, v, w)));
+    }
+    // Another stream with the liar's id: a wrong key is refused, and so is
+    // the right key while the session is open.
+    let mut c = liar.client.clone();
+    let e = open_session(&mut c, liar.id, &[0; 32], 1).await.expect_err("hijack refused");
+    assert_eq!(e.code(), tonic::Code::FailedPrecondition, "{e}");
+    let e = open_session(&mut c, liar.id, &liar.session_key, 1).await.expect_err("refused");
+    assert_eq!(e.code(), tonic::Code::AlreadyExists, "{e}");
+    let status = client::status(&cluster.url).await.expect("status");
+    assert_eq!(status.jobs[0].state, "running", "no forged failure failed the job");
+    assert_eq!(status.jobs[0].tiles_done, 0, "no forged tile was merged");
+    // Honest workers finish it.
+    drop(liar);
+    let mut cluster = cluster;
+    cluster.add_worker();
+    cluster.add_worker();
+    let summary = tokio::time::timeout(Duration::from_secs(120), job)
+        .await
+        .expect("job finishes")
+        .expect("task")
+        .expect("the job succeeds");
+    assert!(bits(&summary.image) == reference, "a lie reached the image");
+    cluster.stop().await;
+}
