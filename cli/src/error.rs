@@ -16,9 +16,9 @@ pub enum Error {
     /// The scene could not be built.
     #[error("{0}")]
     Build(#[from] BuildError),
-    /// The film or its samples are over the limits.
+    /// The film has no pixels, or it or its samples are over the limits.
     #[error(transparent)]
-    TooLarge(#[from] farm_common::film::TooLarge),
+    Film(#[from] farm_common::film::FilmError),
     /// The image could not be written.
     #[error(transparent)]
     Image(#[from] ImageError),
@@ -73,7 +73,7 @@ impl Error {
         match self {
             Error::Scene(_)
             | Error::Build(_)
-            | Error::TooLarge(_)
+            | Error::Film(_)
             | Error::Reference(_)
             | Error::SizeMismatch { .. } => ExitCode::from(EXIT_BAD_INPUT),
             _ => ExitCode::FAILURE,

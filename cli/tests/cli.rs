@@ -280,6 +280,13 @@ fn oversize_films_and_sample_counts_are_refused_before_rendering() {
     assert_eq!(code, 2, "{stderr}");
     assert!(stderr.contains("10000000000 pixels (100000×100000)"), "{stderr}");
     assert!(stderr.contains("--max-pixels") && !stderr.contains("panicked"), "{stderr}");
+    // A film below one pixel is an error at the Film directive, not a blank render.
+    let none = dir.join("none.pbrt");
+    let film = "Film \"image\" \"integer xresolution\" -5";
+    std::fs::write(&none, format!("{film}\nWorldBegin\nShape \"sphere\"\nWorldEnd\n")).unwrap();
+    let (code, stderr) = submit(&none);
+    assert_eq!(code, 2, "{stderr}");
+    assert!(stderr.contains("none.pbrt:1:1: \"integer xresolution\" is -5"), "{stderr}");
 
     let small = dir.join("small.pbrt");
     let film = "Film \"image\" \"integer xresolution\" 16 \"integer yresolution\" 16";

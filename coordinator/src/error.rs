@@ -52,9 +52,9 @@ pub enum Error {
     /// A job whose manifest names an asset not uploaded.
     #[error("asset {0} has not been uploaded")]
     MissingAsset(String),
-    /// A job whose film or samples are over the coordinator's limits.
+    /// A job whose film has no pixels, or whose film or samples are over the coordinator's limits.
     #[error(transparent)]
-    TooLarge(#[from] farm_common::film::TooLarge),
+    Film(#[from] farm_common::film::FilmError),
     /// A job whose film has no pixels.
     #[error("the film has no pixels")]
     EmptyFilm,
@@ -99,7 +99,7 @@ impl From<Error> for Status {
             | Error::HashMismatch
             | Error::BadManifest(_)
             | Error::EmptyFilm
-            | Error::TooLarge(_)
+            | Error::Film(_)
             | Error::UnknownTile(..)
             | Error::WrongDimensions(_)
             | Error::BadPixels(..) => Status::invalid_argument(message),

@@ -328,16 +328,20 @@ impl Parser {
         Ok(tok.text.into_owned())
     }
 
+    /// A directive's numeric argument. It must be finite: a NaN or
+    /// infinite transform (`LookAt nan ...`, `Scale 1e39 ...`) would turn
+    /// every point it touches into NaN and render a black image.
     fn number(&self, t: &mut Tokenizer<'_>, loc: &FileLoc, context: &str) -> Result<f64> {
         let tok = Self::required(t, loc, context, "a number")?;
         match tok.kind {
             TokenKind::Bare => values::parse_number(&tok.text),
             _ => None,
         }
+        .filter(|v| v.is_finite())
         .ok_or_else(|| SceneError::Syntax {
             loc: t.loc(&tok),
             found: tok.describe(),
-            expected: format!("a number for {context}"),
+            expected: format!("a finite number for {context}"),
         })
     }
 

@@ -102,6 +102,7 @@ enum Format {
 /// Reads a PLY file's bytes.
 pub fn parse(data: &[u8]) -> Result<PlyMesh> {
     let (format, elements, body) = header(data)?;
+    check_counts(&elements, format, body.len())?;
     let mut body = Body { data: body, pos: 0, format };
     let vertex_count = elements.iter().find(|e| e.name == "vertex").map_or(0, |e| e.count);
     let face_count = elements.iter().find(|e| e.name == "face").map_or(0, |e| e.count);
@@ -114,6 +115,8 @@ pub fn parse(data: &[u8]) -> Result<PlyMesh> {
         match e.name.as_str() {
             "vertex" => read_vertices(e, &mut body, &mut mesh)?,
             "face" => read_faces(e, &mut body, vertex_count, &mut mesh, &mut bad_faces)?,
+            // An element with no properties takes no bytes, however many.
+            _ if e.props.is_empty() => {}
             _ => {
                 for i in 0..e.count {
                     for p in &e.props {
@@ -129,6 +132,39 @@ pub fn parse(data: &[u8]) -> Result<PlyMesh> {
         ));
     }
     Ok(mesh)
+}
+
+/// Refuses a header whose element counts need more bytes than follow it,
+/// before anything is allocated for them: each item takes at least one
+/// scalar (binary) or one digit and a separator (ASCII) per property.
+fn check_counts(elements: &[Element], format: Format, body_len: usize) -> Result<()> {
+    let mut need = 0usize;
+    for e in elements {
+        let per_item: usize = e
+            .props
+            .iter()
+            .map(|p| match (format, p.list) {
+                (Format::Ascii, _) => 2,
+                (_, Some(count)) => count.size(),
+                (_, None) => p.ty.size(),
+            })
+            .sum();
+        let bytes = e.count.checked_mul(per_item).and_then(|b| need.checked_add(b));
+        // The last ASCII value needs no separator after it.
+        let slack = usize::from(format == Format::Ascii);
+        match bytes {
+            Some(b) if b <= body_len + slack => need = b,
+            _ => {
+                return err(format!(
+                    "element \"{}\" declares {} items, which need at least {} bytes, but only {body_len} bytes follow the header",
+                    e.name,
+                    e.count,
+                    bytes.map_or_else(|| "more than 2^64".to_string(), |b| (b - need).to_string()),
+                ))
+            }
+        }
+    }
+    Ok(())
 }
 
 fn in_element(e: PlyError, el: &Element, i: usize) -> PlyError {
@@ -428,5 +464,29 @@ property uchar flags\nelement face {}\nproperty uchar junk\nproperty list ushort
             b"ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nend_header\n0\n"
         )
         .is_err());
+    }
+
+    #[test]
+    fn counts_beyond_the_file_are_refused_before_allocating() {
+        let head = |fmt: &str, n: &str| {
+            format!(
+                "ply\nformat {fmt} 1.0\nelement vertex {n}\nproperty float x\nproperty float y\n\
+property float z\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n"
+            )
+        };
+        for fmt in ["ascii", "binary_little_endian"] {
+            for n in ["2147483648", "4611686018427387904", "18446744073709551615"] {
+                let mut d = head(fmt, n).into_bytes();
+                d.extend([0u8; 64]);
+                let e = parse(&d).unwrap_err();
+                assert!(e.0.contains(&format!("declares {n} items")), "{e}");
+                assert!(e.0.contains("only 64 bytes follow the header"), "{e}");
+            }
+        }
+        // An element without properties costs nothing, whatever its count.
+        let d = "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\n\
+property float z\nelement nothing 18446744073709551615\nelement face 1\n\
+property list uchar int vertex_indices\nend_header\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2";
+        assert_eq!(parse(d.as_bytes()).unwrap().indices, vec![0, 1, 2]);
     }
 }

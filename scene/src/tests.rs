@@ -174,9 +174,19 @@ fn error_locations() {
     assert!(e.starts_with("t.pbrt:2:2: cannot read \"./no/such/file.pbrt\""), "{e}");
     let e = err("Translate 1 2 x\n");
     assert!(
-        e.starts_with("t.pbrt:1:15: unexpected \"x\" (expected a number for Translate)"),
+        e.starts_with("t.pbrt:1:15: unexpected \"x\" (expected a finite number for Translate)"),
         "{e}"
     );
+    // NaN and infinite transforms are refused where they are written.
+    let e = err("LookAt 0 0 5  nan 0 0  0 1 0\n");
+    assert!(
+        e.starts_with("t.pbrt:1:15: unexpected \"nan\" (expected a finite number for LookAt)"),
+        "{e}"
+    );
+    let e = err("WorldBegin\nScale 1 1e39 1\n");
+    assert!(e.starts_with("t.pbrt:2:9: unexpected \"1e39\""), "{e}");
+    let e = err("Transform [1 0 0 0 0 1 0 0 0 0 1 0 0 0 inf 1]\n");
+    assert!(e.contains("(expected a finite number for Transform)"), "{e}");
     let e = err("WorldBegin Shape \"plymesh\" \"string filename\" \"none.ply\"");
     assert!(e.starts_with("t.pbrt:1:28: cannot read \"./none.ply\""), "{e}");
     for e in [err("\"Shape\""), err("Rotate 1 2 3")] {

@@ -179,30 +179,49 @@ impl Default for Limits {
     }
 }
 
-/// A film or sample count over the [`Limits`].
+/// A film no render can have, or one over the [`Limits`].
 #[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
-#[error("the job is too large: {0}")]
-pub struct TooLarge(pub String);
+pub enum FilmError {
+    /// A film or sample count over the limits, with how much it would need.
+    #[error("the job is too large: {0}")]
+    TooLarge(String),
+    /// A resolution below one pixel (pbrt-v3 would render nothing).
+    #[error(
+        "{loc}: \"integer {name}\" is {value}: a film needs at least one pixel across and down"
+    )]
+    NoPixels {
+        /// Where the `Film` directive is.
+        loc: crate::scene::FileLoc,
+        /// `xresolution` or `yresolution`.
+        name: &'static str,
+        /// The value given.
+        value: i32,
+    },
+}
 
 /// The longest side a film may have, whatever the limits: beyond it the
 /// tile arithmetic would overflow.
 const MAX_SIDE: u64 = 1 << 30;
 
 /// [`layout`], refused with a message saying how much the job would need
-/// when its film or its samples are over `limits`. The film's resolution
+/// when its film or its samples are over `limits`, or naming the `Film`
+/// directive when a resolution is below one pixel. The film's resolution
 /// is checked before its geometry is computed.
 pub fn checked_layout(
     desc: &SceneDescription,
     spp_override: Option<u32>,
     limits: &Limits,
-) -> Result<(FilmLayout, Vec<Warning>), TooLarge> {
+) -> Result<(FilmLayout, Vec<Warning>), FilmError> {
     let fp = Params::new(&desc.film.params);
-    let side = |name: &str, default: i32| fp.int(name, default).max(1) as u64;
-    let (x, y) = (side("xresolution", 1280), side("yresolution", 720));
+    let side = |name: &'static str, default: i32| match fp.int(name, default) {
+        v if v < 1 => Err(FilmError::NoPixels { loc: desc.film.loc.clone(), name, value: v }),
+        v => Ok(v as u64),
+    };
+    let (x, y) = (side("xresolution", 1280)?, side("yresolution", 720)?);
     let pixels = x * y;
     if x > MAX_SIDE || y > MAX_SIDE || pixels > limits.max_pixels {
         let bytes = pixels as f64 * std::mem::size_of::<super::Pixel>() as f64;
-        return Err(TooLarge(format!(
+        return Err(FilmError::TooLarge(format!(
             "the film has {pixels} pixels ({x}×{y}), over the limit of {} (--max-pixels); its sums alone would take {:.1} GB",
             limits.max_pixels,
             bytes / 1e9
@@ -211,7 +230,7 @@ pub fn checked_layout(
     let (l, warnings) = layout(desc, spp_override);
     let spp = l.samples.max(0) as u64;
     if spp > limits.max_spp {
-        return Err(TooLarge(format!(
+        return Err(FilmError::TooLarge(format!(
             "{spp} samples per pixel are over the limit of {} (--max-spp)",
             limits.max_spp
         )));
@@ -220,7 +239,7 @@ pub fn checked_layout(
     let sample_pixels = b.width().max(0) as u64 * b.height().max(0) as u64;
     match sample_pixels.checked_mul(spp) {
         Some(n) if n <= limits.max_samples => Ok((l, warnings)),
-        n => Err(TooLarge(format!(
+        n => Err(FilmError::TooLarge(format!(
             "{} samples ({sample_pixels} pixels with the filter's margin × {spp} spp) are over the limit of {} (--max-samples)",
             n.map_or_else(|| "more than 2^64".to_string(), |n| n.to_string()),
             limits.max_samples
@@ -384,22 +403,36 @@ mod tests {
         let limits = Limits::default();
         let (l, _) = checked_layout(&film(1920, 1080), None, &limits).expect("an HD film");
         assert_eq!(l.spp(), 16);
-        let e = checked_layout(&film(100_000, 100_000), None, &limits).unwrap_err();
-        assert!(e.0.contains("10000000000 pixels (100000×100000)"), "{e}");
-        assert!(e.0.contains("--max-pixels") && e.0.contains("GB"), "{e}");
+        let e = checked_layout(&film(100_000, 100_000), None, &limits).unwrap_err().to_string();
+        assert!(e.contains("10000000000 pixels (100000×100000)"), "{e}");
+        assert!(e.contains("--max-pixels") && e.contains("GB"), "{e}");
         // Sides whose tile arithmetic would overflow are refused before it runs.
         let e =
             checked_layout(&film(i32::MAX, 1), None, &Limits { max_pixels: u64::MAX, ..limits });
-        assert!(e.unwrap_err().0.contains("pixels"));
-        let e = checked_layout(&film(64, 64), Some(u32::MAX), &limits).unwrap_err();
-        assert!(e.0.contains("4294967295 samples per pixel") && e.0.contains("--max-spp"), "{e}");
+        assert!(e.unwrap_err().to_string().contains("pixels"));
+        let e = checked_layout(&film(64, 64), Some(u32::MAX), &limits).unwrap_err().to_string();
+        assert!(e.contains("4294967295 samples per pixel") && e.contains("--max-spp"), "{e}");
         let tight = Limits { max_samples: 1000, ..limits };
-        let e = checked_layout(&film(64, 64), None, &tight).unwrap_err();
-        assert!(e.0.contains("--max-samples") && e.0.contains("16 spp"), "{e}");
+        let e = checked_layout(&film(64, 64), None, &tight).unwrap_err().to_string();
+        assert!(e.contains("--max-samples") && e.contains("16 spp"), "{e}");
         let huge = Limits { max_pixels: u64::MAX, max_spp: u64::MAX, max_samples: u64::MAX };
         assert!(checked_layout(&film(1 << 20, 1 << 20), None, &huge).is_ok());
         // A product past 64 bits is refused, not wrapped.
-        let e = checked_layout(&film(1 << 20, 1 << 20), Some(u32::MAX), &huge).unwrap_err();
-        assert!(e.0.contains("more than 2^64"), "{e}");
+        let e =
+            checked_layout(&film(1 << 20, 1 << 20), Some(u32::MAX), &huge).unwrap_err().to_string();
+        assert!(e.contains("more than 2^64"), "{e}");
+    }
+
+    #[test]
+    fn a_film_below_one_pixel_is_an_error_naming_the_film() {
+        for (x, y, name, value) in [(0, 10, "xresolution", 0), (10, -5, "yresolution", -5)] {
+            let mut desc = film(x, y);
+            desc.film.loc = FileLoc { file: "s.pbrt".into(), line: 4, column: 1 };
+            let e = checked_layout(&desc, None, &Limits::default()).unwrap_err();
+            assert_eq!(e, FilmError::NoPixels { loc: desc.film.loc.clone(), name, value });
+            assert!(e
+                .to_string()
+                .starts_with(&format!("s.pbrt:4:1: \"integer {name}\" is {value}")));
+        }
     }
 }
