@@ -43,6 +43,8 @@ pub struct RemoteOptions {
     pub spp: Option<u32>,
     /// Job priority (higher first).
     pub priority: i32,
+    /// Upload files outside the scene's folder too.
+    pub allow_assets_outside: bool,
 }
 
 /// Progress of a remote job.
@@ -68,6 +70,12 @@ pub async fn submit(
 ) -> Result<RenderSummary, Error> {
     let start = Instant::now();
     let (desc, warnings) = farm_scene::parse_file(scene)?;
+    let outside: Vec<String> =
+        desc.assets.keys().filter(|k| farm_scene::is_outside(k)).cloned().collect();
+    if !outside.is_empty() && !opts.allow_assets_outside {
+        let folder = scene.parent().filter(|p| !p.as_os_str().is_empty()).unwrap_or(Path::new("."));
+        return Err(Error::AssetsOutside { folder: folder.display().to_string(), paths: outside });
+    }
     let (film, _) = FilmGeometry::from_description(&desc);
     let (manifest, assets) = encode_scene(&desc).map_err(|e| Error::Protocol(e.to_string()))?;
     let mut client = connect(url).await?;

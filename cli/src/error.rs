@@ -26,6 +26,15 @@ pub enum Error {
     #[error("cannot start render threads: {0}")]
     Threads(#[from] rayon::ThreadPoolBuildError),
     // Talking to a coordinator.
+    /// The scene names files outside its folder, which are not uploaded
+    /// unless asked for.
+    #[error("the scene names files outside its folder {folder}, which are not uploaded without --allow-assets-outside: {}", .paths.join(", "))]
+    AssetsOutside {
+        /// The scene's folder.
+        folder: String,
+        /// The files, relative to the folder.
+        paths: Vec<String>,
+    },
     /// The address is not a valid URL or nothing answers there.
     #[error("cannot reach the coordinator at {url}: {source}")]
     Connect {
@@ -74,6 +83,7 @@ impl Error {
             Error::Scene(_)
             | Error::Build(_)
             | Error::Film(_)
+            | Error::AssetsOutside { .. }
             | Error::Reference(_)
             | Error::SizeMismatch { .. } => ExitCode::from(EXIT_BAD_INPUT),
             _ => ExitCode::FAILURE,

@@ -33,6 +33,32 @@ fn string_param(entity: &Entity, name: &str, dir: &Path) -> Option<(PathBuf, Fil
     })
 }
 
+/// The key of the asset at `path`: its path relative to the scene's folder
+/// `root`, with `/` between components, so the description a client sends
+/// never carries the client's absolute paths. A file outside the folder
+/// gets a key that starts with `../` ([`is_outside`]); symbolic links are
+/// followed first, so a link cannot hide where a file really is.
+pub fn asset_key(root: &Path, path: &Path) -> String {
+    let file = std::fs::canonicalize(path).unwrap_or_else(|_| path.to_path_buf());
+    let mut file = file.components().peekable();
+    let mut base = root.components().peekable();
+    while let (Some(a), Some(b)) = (file.peek(), base.peek()) {
+        if a != b {
+            break;
+        }
+        file.next();
+        base.next();
+    }
+    let up = base.map(|_| "..".to_string());
+    let down = file.map(|c| c.as_os_str().to_string_lossy().into_owned());
+    up.chain(down).collect::<Vec<_>>().join("/")
+}
+
+/// Whether an asset key names a file outside the scene's folder.
+pub fn is_outside(key: &str) -> bool {
+    key == ".." || key.starts_with("../")
+}
+
 impl Builder {
     /// Reads the file named by `"string <param>"` into the assets and
     /// rewrites the parameter to the asset's key.
@@ -45,11 +71,9 @@ impl Builder {
         let Some((path, loc)) = string_param(entity, param, dir) else {
             return Ok(());
         };
-        let key = path.to_string_lossy().into_owned();
-        if !self.scene.assets.contains_key(&key) {
-            let bytes = read_file(&path, &loc)?;
-            self.scene.assets.insert(key.clone(), bytes);
-        }
+        let bytes = read_file(&path, &loc)?;
+        let key = asset_key(&self.root, &path);
+        self.scene.assets.entry(key.clone()).or_insert(bytes);
         for p in &mut entity.params.params {
             if p.name == param {
                 if let ParamValue::String(v) = &mut p.value {

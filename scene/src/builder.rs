@@ -73,6 +73,9 @@ pub struct GraphicsState {
 pub struct Builder {
     /// The scene so far.
     pub scene: SceneDescription,
+    /// The folder of the scene's main file (canonical when it exists):
+    /// asset keys are relative to it.
+    pub root: std::path::PathBuf,
     /// Warnings so far.
     pub warnings: Vec<Warning>,
     /// Which block the parser is in.
@@ -116,6 +119,7 @@ impl Builder {
         material_cache.insert((0, 0, 0), 0);
         Builder {
             scene,
+            root: std::path::PathBuf::new(),
             warnings: Vec::new(),
             block: Block::Options,
             ctm: TransformSet::default(),

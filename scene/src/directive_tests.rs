@@ -187,7 +187,36 @@ fn include_is_relative_to_including_file_and_assets_load() {
     assert_eq!(s.shapes[0].entity.loc.line, 1);
     assert!(s.shapes[0].entity.loc.file.ends_with("deeper/b.pbrt"));
     let key = Params::new(&s.lights[0].entity.params).string("mapname", "");
+    assert_eq!(key, "sky.exr");
     assert_eq!(s.assets[&key], b"EXR");
+    std::fs::remove_dir_all(dir).ok();
+}
+
+#[test]
+fn asset_keys_are_relative_and_mark_files_outside_the_scene_folder() {
+    let dir = std::env::temp_dir().join(format!("farm-parser-keys-{}", std::process::id()));
+    std::fs::create_dir_all(dir.join("scene/tex")).unwrap();
+    std::fs::create_dir_all(dir.join("secret")).unwrap();
+    std::fs::write(dir.join("scene/tex/a.png"), b"A").unwrap();
+    std::fs::write(dir.join("secret/key.png"), b"K").unwrap();
+    let main = dir.join("scene/main.pbrt");
+    let tex = |n: &str, f: &str| {
+        format!("Texture \"{n}\" \"spectrum\" \"imagemap\" \"string filename\" \"{f}\"\n")
+    };
+    let abs = dir.join("secret/key.png");
+    let text = format!(
+        "WorldBegin\n{}{}{}{}WorldEnd\n",
+        tex("a", "tex/a.png"),
+        tex("b", "tex/../tex/a.png"),
+        tex("c", "../secret/key.png"),
+        tex("d", &abs.to_string_lossy()),
+    );
+    std::fs::write(&main, text).unwrap();
+    let (s, _) = parse_file(&main).unwrap();
+    let keys: Vec<String> = s.assets.keys().cloned().collect();
+    assert_eq!(keys, vec!["../secret/key.png".to_string(), "tex/a.png".to_string()]);
+    assert!(keys.iter().all(|k| !Path::new(k).is_absolute()));
+    assert!(crate::is_outside(&keys[0]) && !crate::is_outside(&keys[1]));
     std::fs::remove_dir_all(dir).ok();
 }
 

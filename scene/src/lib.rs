@@ -26,6 +26,7 @@ mod directive_tests;
 #[cfg(test)]
 mod tests;
 
+pub use assets::is_outside;
 pub use error::{Result, SceneError};
 use farm_common::scene::{FileLoc, SceneDescription, Warning};
 use std::path::Path;
@@ -64,6 +65,8 @@ fn parse(
     name: &str,
 ) -> Result<(SceneDescription, Vec<Warning>)> {
     let mut p = parser::Parser::new(name);
+    let base = if dir.as_os_str().is_empty() { Path::new(".") } else { dir };
+    p.builder.root = std::fs::canonicalize(base).unwrap_or_else(|_| base.to_path_buf());
     p.parse_text(text, file, dir)?;
     Ok(p.builder.finish(&p.end))
 }

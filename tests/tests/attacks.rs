@@ -128,3 +128,40 @@ async fn forged_unassigned_non_finite_and_hijacked_results_leave_the_image_uncha
     assert!(bits(&summary.image) == reference, "a lie reached the image");
     cluster.stop().await;
 }
+
+/// A scene naming a file outside its folder is refused before anything is
+/// uploaded, naming the file; with `allow_assets_outside` it renders.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn files_outside_the_scene_folder_are_not_uploaded_unless_allowed() {
+    let dir = std::env::temp_dir().join(format!("farm-outside-{}", std::process::id()));
+    std::fs::create_dir_all(dir.join("scene")).unwrap();
+    std::fs::create_dir_all(dir.join("secret")).unwrap();
+    // A 1×1 PFM: enough for an image map.
+    let mut pfm = b"PF\n1 1\n-1\n".to_vec();
+    pfm.extend([0.5f32, 0.25, 1.0].iter().flat_map(|v| v.to_le_bytes()));
+    std::fs::write(dir.join("secret/key.pfm"), pfm).unwrap();
+    let scene = dir.join("scene/s.pbrt");
+    std::fs::write(
+        &scene,
+        "Film \"image\" \"integer xresolution\" 16 \"integer yresolution\" 16\n\
+         Sampler \"halton\" \"integer pixelsamples\" 1\nWorldBegin\n\
+         Texture \"t\" \"spectrum\" \"imagemap\" \"string filename\" \"../secret/key.pfm\"\n\
+         Material \"matte\" \"texture Kd\" \"t\"\nLightSource \"point\"\n\
+         Translate 0 0 5\nShape \"sphere\"\nWorldEnd\n",
+    )
+    .unwrap();
+    let cluster = TestCluster::start(1, Duration::from_millis(300)).await;
+    let err = client::submit(&cluster.url, &scene, &RemoteOptions::default(), |_, _| {}).await;
+    let Err(e @ farm_cli::Error::AssetsOutside { .. }) = err else {
+        panic!("not refused: {:?}", err.map(|s| s.output))
+    };
+    assert!(e.to_string().contains("../secret/key.pfm"), "{e}");
+    assert!(e.to_string().contains("--allow-assets-outside"), "{e}");
+    let status = client::status(&cluster.url).await.expect("status");
+    assert!(status.jobs.is_empty(), "nothing was submitted");
+    let opts = RemoteOptions { allow_assets_outside: true, ..Default::default() };
+    let summary = client::submit(&cluster.url, &scene, &opts, |_, _| {}).await.expect("renders");
+    assert_eq!((summary.image.width, summary.image.height), (16, 16));
+    cluster.stop().await;
+    std::fs::remove_dir_all(dir).ok();
+}

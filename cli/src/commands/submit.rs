@@ -38,6 +38,11 @@ pub struct SubmitArgs {
     /// its two half-images) to this image (.exr, .pfm or .png).
     #[arg(long, value_name = "FILE")]
     pub error_map: Option<PathBuf>,
+    /// Upload files the scene names outside its own folder too (with
+    /// --coordinator; by default such a scene is refused, so a scene cannot
+    /// send your other files to a farm).
+    #[arg(long)]
+    pub allow_assets_outside: bool,
     /// The largest render to start (embedded; a coordinator has its own).
     #[command(flatten)]
     pub limits: super::LimitArgs,
@@ -58,6 +63,7 @@ async fn run_remote(args: SubmitArgs) -> ExitCode {
         output: args.output.clone(),
         spp: args.spp,
         priority: args.priority,
+        allow_assets_outside: args.allow_assets_outside,
     };
     let bar = crate::progress::progress_bar(args.quiet);
     let started = std::time::Instant::now();
