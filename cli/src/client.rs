@@ -6,29 +6,38 @@ use crate::error::Error;
 use farm_common::film::FilmGeometry;
 use farm_common::stats::RayStats;
 use farm_coordinator::estimate::ErrorEstimate;
+use farm_proto::auth::Token;
+use farm_proto::connect::Client;
 use farm_proto::convert::{blob_chunks, encode_scene, Blob, ImageAssembler};
-use farm_proto::v1::{self, coordinator_client::CoordinatorClient, job_event};
-use farm_proto::{MAX_MESSAGE_SIZE, PROTOCOL_VERSION};
+use farm_proto::v1::{self, job_event};
+use farm_proto::PROTOCOL_VERSION;
 use farm_render::features::Features;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
-use tonic::transport::Channel;
+
+/// A coordinator and the token to present to it.
+#[derive(Clone, Debug, Default)]
+pub struct Remote {
+    /// Its URL: `https://HOST:PORT`, or `http://` for an insecure one.
+    pub url: String,
+    /// The token (required with https://).
+    pub token: Option<Token>,
+}
+
+impl Remote {
+    /// A coordinator reached without a token (an insecure one, on loopback).
+    pub fn insecure(url: &str) -> Remote {
+        Remote { url: url.to_string(), token: None }
+    }
+}
 
 /// Connects to a coordinator.
-pub async fn connect(url: &str) -> Result<CoordinatorClient<Channel>, Error> {
-    let endpoint = Channel::from_shared(url.to_string())
-        .map_err(|_| Error::Protocol(format!("{url} is not a valid URL")))?;
-    let channel = endpoint
-        .connect()
-        .await
-        .map_err(|source| Error::Connect { url: url.to_string(), source })?;
-    Ok(CoordinatorClient::new(channel)
-        .max_decoding_message_size(MAX_MESSAGE_SIZE)
-        .max_encoding_message_size(MAX_MESSAGE_SIZE))
+pub async fn connect(remote: &Remote) -> Result<Client, Error> {
+    Ok(farm_proto::connect::connect(&remote.url, remote.token.as_ref()).await?)
 }
 
 /// Uploads one blob in chunks.
-pub async fn upload(client: &mut CoordinatorClient<Channel>, blob: &Blob) -> Result<(), Error> {
+pub async fn upload(client: &mut Client, blob: &Blob) -> Result<(), Error> {
     let parts = blob_chunks(&blob.hash, &blob.data);
     client.upload_blob(tokio_stream::iter(parts)).await?;
     Ok(())
@@ -63,7 +72,7 @@ pub struct RemoteProgress {
 /// Parses `scene` here, uploads it, renders it on the farm and returns the
 /// image (not yet written).
 pub async fn submit(
-    url: &str,
+    remote: &Remote,
     scene: &Path,
     opts: &RemoteOptions,
     mut progress: impl FnMut(u64, &RemoteProgress),
@@ -78,7 +87,7 @@ pub async fn submit(
     }
     let (film, _) = FilmGeometry::from_description(&desc);
     let (manifest, assets) = encode_scene(&desc).map_err(|e| Error::Protocol(e.to_string()))?;
-    let mut client = connect(url).await?;
+    let mut client = connect(remote).await?;
     for blob in assets.iter().chain(std::iter::once(&manifest)) {
         upload(&mut client, blob).await?;
     }
@@ -140,13 +149,13 @@ pub async fn submit(
 }
 
 /// Jobs and workers.
-pub async fn status(url: &str) -> Result<v1::GetStatusResponse, Error> {
-    Ok(connect(url).await?.get_status(v1::GetStatusRequest {}).await?.into_inner())
+pub async fn status(remote: &Remote) -> Result<v1::GetStatusResponse, Error> {
+    Ok(connect(remote).await?.get_status(v1::GetStatusRequest {}).await?.into_inner())
 }
 
 /// Cancels a job; whether it was still running.
-pub async fn cancel(url: &str, job: u64) -> Result<bool, Error> {
-    Ok(connect(url)
+pub async fn cancel(remote: &Remote, job: u64) -> Result<bool, Error> {
+    Ok(connect(remote)
         .await?
         .cancel_job(v1::CancelJobRequest { job_id: job })
         .await?
@@ -155,12 +164,8 @@ pub async fn cancel(url: &str, job: u64) -> Result<bool, Error> {
 }
 
 /// Whether the gRPC health service at `url` reports SERVING.
-pub async fn healthy(url: &str) -> Result<bool, Error> {
-    let channel = Channel::from_shared(url.to_string())
-        .map_err(|_| Error::Protocol(format!("{url} is not a valid URL")))?
-        .connect()
-        .await
-        .map_err(|source| Error::Connect { url: url.to_string(), source })?;
+pub async fn healthy(remote: &Remote) -> Result<bool, Error> {
+    let (channel, _) = farm_proto::connect::channel(&remote.url, remote.token.as_ref()).await?;
     let mut client = tonic_health::pb::health_client::HealthClient::new(channel);
     let r = client
         .check(tonic_health::pb::HealthCheckRequest { service: String::new() })

@@ -164,6 +164,7 @@ where
         spp_override: 0,
         spp,
         geometry,
+        owner: Default::default(),
     };
     let (results, inbox) = mpsc::channel();
     let mut out = LocalOutbox {

@@ -35,14 +35,12 @@ pub enum Error {
         /// The files, relative to the folder.
         paths: Vec<String>,
     },
-    /// The address is not a valid URL or nothing answers there.
-    #[error("cannot reach the coordinator at {url}: {source}")]
-    Connect {
-        /// The address.
-        url: String,
-        /// What failed.
-        source: tonic::transport::Error,
-    },
+    /// The URL, the token or the connection is wrong.
+    #[error(transparent)]
+    Connect(#[from] farm_proto::connect::ConnectError),
+    /// A token file that cannot be read or holds no token.
+    #[error("{0}")]
+    Token(String),
     /// The coordinator refused or failed a call.
     #[error("the coordinator says: {}", .0.message())]
     Rpc(#[from] tonic::Status),

@@ -61,6 +61,9 @@ pub enum Error {
     /// A job id the coordinator does not know.
     #[error("no job {0}")]
     NoJob(u64),
+    /// A client acting on a job another token submitted.
+    #[error("job {0} belongs to another client")]
+    NotYourJob(u64),
     /// A tile id outside the job's film.
     #[error("tile {0} is outside the film's {1} tiles")]
     UnknownTile(u32, u32),
@@ -91,6 +94,7 @@ impl From<Error> for Status {
             | Error::MissingAsset(_) => Status::failed_precondition(message),
             Error::ShuttingDown => Status::unavailable(message),
             Error::SessionOpen => Status::already_exists(message),
+            Error::NotYourJob(_) => Status::permission_denied(message),
             Error::WorkerSilent => Status::deadline_exceeded(message),
             Error::NoBlob | Error::NoJob(_) => Status::not_found(message),
             Error::EmptyWorkStream

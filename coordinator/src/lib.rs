@@ -14,6 +14,8 @@ pub mod estimate;
 pub mod merge;
 /// The farm scheduler.
 pub mod scheduler;
+/// TLS, tokens and roles.
+pub mod security;
 /// The coordinator gRPC server.
 pub mod server;
 

@@ -9,6 +9,10 @@ pub mod v1 {
     tonic::include_proto!("renderfarm.v1");
 }
 
+/// Tokens and roles.
+pub mod auth;
+/// Connecting to a coordinator over TLS or, on loopback, plaintext.
+pub mod connect;
 /// Conversions between protocol messages and farm types.
 pub mod convert;
 /// What can be wrong with what arrives.

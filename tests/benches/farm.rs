@@ -111,7 +111,7 @@ fn free_port() -> u16 {
 async fn wait_for_workers(url: &str, n: usize) {
     let deadline = Instant::now() + Duration::from_secs(30);
     loop {
-        if let Ok(s) = client::status(url).await {
+        if let Ok(s) = client::status(&farm_cli::client::Remote::insecure(url)).await {
             if s.workers.len() >= n {
                 return;
             }
@@ -207,7 +207,13 @@ fn overhead_table(rt: &Runtime) {
             let opts = RemoteOptions { spp: Some(spp), ..Default::default() };
             let cpu = (cpu_seconds("self"), procs.cpu_seconds());
             let t = Instant::now();
-            rt.block_on(client::submit(&url, path, &opts, |_, _| {})).expect("farm render");
+            rt.block_on(client::submit(
+                &farm_cli::client::Remote::insecure(&url),
+                path,
+                &opts,
+                |_, _| {},
+            ))
+            .expect("farm render");
             farm.wall.push(t.elapsed().as_secs_f64());
             // Client (this process) + coordinator (procs[0]) + worker (procs[1]).
             if let ((Some(a), Some(pa)), Some(b), Some(pb)) =
@@ -330,7 +336,8 @@ async fn capacity_run(
     let t = Instant::now();
     let mut last_tile = None;
     let opts = RemoteOptions::default();
-    let job = client::submit(&url, scene, &opts, |_, p| {
+    let remote = farm_cli::client::Remote::insecure(&url);
+    let job = client::submit(&remote, scene, &opts, |_, p| {
         if p.tiles_done == p.tiles_total && last_tile.is_none() {
             last_tile = Some(t.elapsed().as_secs_f64());
         }

@@ -64,7 +64,7 @@ async fn forged_unassigned_non_finite_and_hijacked_results_leave_the_image_uncha
     let url = cluster.url.clone();
     let job = tokio::spawn(async move {
         let opts = RemoteOptions { spp: Some(SPP), ..Default::default() };
-        client::submit(&url, &scene(), &opts, |_, _| {}).await
+        client::submit(&farm_cli::client::Remote::insecure(&url), &scene(), &opts, |_, _| {}).await
     });
     let first = liar.assignment().await;
     let held = {
@@ -112,7 +112,8 @@ async fn forged_unassigned_non_finite_and_hijacked_results_leave_the_image_uncha
     assert_eq!(e.code(), tonic::Code::FailedPrecondition, "{e}");
     let e = open_session(&mut c, liar.id, &liar.session_key, 1).await.expect_err("refused");
     assert_eq!(e.code(), tonic::Code::AlreadyExists, "{e}");
-    let status = client::status(&cluster.url).await.expect("status");
+    let status =
+        client::status(&farm_cli::client::Remote::insecure(&cluster.url)).await.expect("status");
     assert_eq!(status.jobs[0].state, "running", "no forged failure failed the job");
     assert_eq!(status.jobs[0].tiles_done, 0, "no forged tile was merged");
     // Honest workers finish it.
@@ -151,16 +152,26 @@ async fn files_outside_the_scene_folder_are_not_uploaded_unless_allowed() {
     )
     .unwrap();
     let cluster = TestCluster::start(1, Duration::from_millis(300)).await;
-    let err = client::submit(&cluster.url, &scene, &RemoteOptions::default(), |_, _| {}).await;
+    let err = client::submit(
+        &farm_cli::client::Remote::insecure(&cluster.url),
+        &scene,
+        &RemoteOptions::default(),
+        |_, _| {},
+    )
+    .await;
     let Err(e @ farm_cli::Error::AssetsOutside { .. }) = err else {
         panic!("not refused: {:?}", err.map(|s| s.output))
     };
     assert!(e.to_string().contains("../secret/key.pfm"), "{e}");
     assert!(e.to_string().contains("--allow-assets-outside"), "{e}");
-    let status = client::status(&cluster.url).await.expect("status");
+    let status =
+        client::status(&farm_cli::client::Remote::insecure(&cluster.url)).await.expect("status");
     assert!(status.jobs.is_empty(), "nothing was submitted");
     let opts = RemoteOptions { allow_assets_outside: true, ..Default::default() };
-    let summary = client::submit(&cluster.url, &scene, &opts, |_, _| {}).await.expect("renders");
+    let summary =
+        client::submit(&farm_cli::client::Remote::insecure(&cluster.url), &scene, &opts, |_, _| {})
+            .await
+            .expect("renders");
     assert_eq!((summary.image.width, summary.image.height), (16, 16));
     cluster.stop().await;
     std::fs::remove_dir_all(dir).ok();

@@ -30,7 +30,10 @@ fn embedded() -> RgbImage {
 
 async fn remote(url: &str) -> RgbImage {
     let opts = RemoteOptions { spp: Some(SPP), ..Default::default() };
-    client::submit(url, &scene(), &opts, |_, _| {}).await.expect("farm render").image
+    client::submit(&farm_cli::client::Remote::insecure(url), &scene(), &opts, |_, _| {})
+        .await
+        .expect("farm render")
+        .image
 }
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 4)]
@@ -51,12 +54,17 @@ async fn a_worker_killed_mid_job_changes_no_bit() {
     let victim = cluster.workers[0].abort_handle();
     let opts = RemoteOptions { spp: Some(SPP), ..Default::default() };
     let mut killed = false;
-    let summary = client::submit(&cluster.url, &scene(), &opts, |_, p| {
-        if !killed && p.tiles_done * 5 >= p.tiles_total {
-            victim.abort();
-            killed = true;
-        }
-    })
+    let summary = client::submit(
+        &farm_cli::client::Remote::insecure(&cluster.url),
+        &scene(),
+        &opts,
+        |_, p| {
+            if !killed && p.tiles_done * 5 >= p.tiles_total {
+                victim.abort();
+                killed = true;
+            }
+        },
+    )
     .await
     .expect("farm render");
     assert!(killed, "the worker was killed during the job");
@@ -152,7 +160,9 @@ async fn duplicates_bad_tiles_and_unknown_jobs_are_refused_without_harm() {
         .expect("job finishes")
         .expect("task");
     assert!(bits(&image) == reference, "bad input changed the image");
-    let status = client::status(&cluster.url).await.expect("coordinator still answers");
+    let status = client::status(&farm_cli::client::Remote::insecure(&cluster.url))
+        .await
+        .expect("coordinator still answers");
     assert_eq!(status.jobs[0].state, "done");
     drop(tx);
     cluster.stop().await;
@@ -201,7 +211,9 @@ async fn an_oversized_message_is_refused_and_the_coordinator_lives_on() {
     .await;
     assert!(ended.is_ok(), "the oversized message did not end the session");
     // ...and keeps serving everyone else.
-    let status = client::status(&cluster.url).await.expect("coordinator still answers");
+    let status = client::status(&farm_cli::client::Remote::insecure(&cluster.url))
+        .await
+        .expect("coordinator still answers");
     assert!(status.workers.is_empty(), "the offending worker is gone");
     cluster.stop().await;
 }
@@ -217,12 +229,24 @@ async fn an_oversize_film_is_refused_and_the_coordinator_lives_on() {
     let big = dir.join("big.pbrt");
     let film = "Film \"image\" \"integer xresolution\" 100000 \"integer yresolution\" 100000";
     std::fs::write(&big, format!("{film}\nWorldBegin\nShape \"sphere\"\nWorldEnd\n")).unwrap();
-    let err = client::submit(&cluster.url, &big, &RemoteOptions::default(), |_, _| {}).await;
+    let err = client::submit(
+        &farm_cli::client::Remote::insecure(&cluster.url),
+        &big,
+        &RemoteOptions::default(),
+        |_, _| {},
+    )
+    .await;
     let Err(farm_cli::Error::Rpc(status)) = err else { panic!("not refused: {err:?}") };
     assert_eq!(status.code(), tonic::Code::InvalidArgument);
     assert!(status.message().contains("10000000000 pixels"), "{}", status.message());
     let opts = RemoteOptions { spp: Some(u32::MAX), ..Default::default() };
-    let err = client::submit(&cluster.url, &scene(), &opts, |_, _| {}).await;
+    let err = client::submit(
+        &farm_cli::client::Remote::insecure(&cluster.url),
+        &scene(),
+        &opts,
+        |_, _| {},
+    )
+    .await;
     let Err(farm_cli::Error::Rpc(status)) = err else { panic!("not refused: {err:?}") };
     assert!(status.message().contains("--max-spp"), "{}", status.message());
     // The farm still renders, bit for bit as embedded.
@@ -238,7 +262,7 @@ async fn a_coordinator_shutting_down_tells_its_clients() {
     let job = tokio::spawn(async move {
         let opts = RemoteOptions { spp: Some(SPP), ..Default::default() };
         let mut watching = Some(watching);
-        client::submit(&url, &scene(), &opts, |_, _| {
+        client::submit(&farm_cli::client::Remote::insecure(&url), &scene(), &opts, |_, _| {
             if let Some(w) = watching.take() {
                 let _ = w.send(());
             }
@@ -292,9 +316,14 @@ async fn a_large_image_arrives_in_chunks_intact() {
         submit::render(&path, &SubmitOptions { threads: 2, ..Default::default() }, |_| {})
             .expect("embedded");
     let cluster = TestCluster::start(2, Duration::from_millis(500)).await;
-    let farm = client::submit(&cluster.url, &path, &RemoteOptions::default(), |_, _| {})
-        .await
-        .expect("farm");
+    let farm = client::submit(
+        &farm_cli::client::Remote::insecure(&cluster.url),
+        &path,
+        &RemoteOptions::default(),
+        |_, _| {},
+    )
+    .await
+    .expect("farm");
     assert_eq!((farm.image.width, farm.image.height), (1024, 1024));
     assert!(bits(&farm.image) == bits(&embedded.image), "the chunked image differs");
     // The error estimate and its map come through the chunks unchanged too.

@@ -3,12 +3,11 @@
 use crate::pool::CpuPool;
 use crate::renderer_cache::RendererCache;
 use farm_common::ids::TileId;
+use farm_proto::connect::Client;
 use farm_proto::convert::Hash;
-use farm_proto::v1::coordinator_client::CoordinatorClient;
 use farm_proto::v1::{self, tile_result::Outcome, TileAssignment, TileFailure, TileResult};
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
-use tonic::transport::Channel;
 
 /// What became of one assignment.
 #[derive(Debug)]
@@ -28,7 +27,7 @@ pub struct TileOutcome {
 /// Build errors and panics become `TileFailure`s.
 pub async fn render_tile(
     renderers: RendererCache,
-    client: CoordinatorClient<Channel>,
+    client: Client,
     pool: CpuPool,
     a: TileAssignment,
     cancelled: Arc<AtomicBool>,

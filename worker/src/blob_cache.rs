@@ -4,14 +4,13 @@
 //! one blob share a single fetch.
 
 use crate::error::Error;
+use farm_proto::connect::Client;
 use farm_proto::convert::{BlobAssembler, Hash};
-use farm_proto::v1::coordinator_client::CoordinatorClient;
 use farm_proto::v1::FetchBlobRequest;
 use std::collections::HashMap;
 use std::future::Future;
 use std::sync::{Arc, Mutex, MutexGuard, PoisonError};
 use tokio::sync::OnceCell;
-use tonic::transport::Channel;
 
 /// Bytes of blobs a worker keeps by default.
 pub const DEFAULT_BLOB_CACHE_BYTES: usize = 1 << 30;
@@ -37,7 +36,7 @@ pub trait BlobSource: Clone + Send + Sync + 'static {
     fn fetch(&self, hash: Hash) -> impl Future<Output = Result<Vec<u8>, Error>> + Send;
 }
 
-impl BlobSource for CoordinatorClient<Channel> {
+impl BlobSource for Client {
     async fn fetch(&self, hash: Hash) -> Result<Vec<u8>, Error> {
         let status = |status| Error::BlobStatus { hash: hex(&hash), status };
         let malformed = |reason: String| Error::BlobMalformed { hash: hex(&hash), reason };

@@ -18,6 +18,8 @@ pub struct WorkerConfig {
     pub health_listen: Option<SocketAddr>,
     /// Whether to keep re-registering after the coordinator goes away.
     pub reconnect: bool,
+    /// The worker token (required with an https:// coordinator).
+    pub token: Option<farm_proto::auth::Token>,
 }
 
 impl Default for WorkerConfig {
@@ -29,6 +31,7 @@ impl Default for WorkerConfig {
             max_in_flight: 0,
             health_listen: None,
             reconnect: true,
+            token: None,
         }
     }
 }

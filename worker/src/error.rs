@@ -6,24 +6,11 @@ use std::net::SocketAddr;
 #[derive(Debug, thiserror::Error)]
 pub enum Error {
     // Reaching the coordinator.
-    /// The coordinator address is not a URI.
-    #[error("invalid coordinator address {address:?}: {message}")]
-    Address {
-        /// The address given.
-        address: String,
-        /// What is wrong with it.
-        message: String,
-    },
-    /// No connection could be made.
-    #[error("cannot connect to the coordinator at {address}: {source}")]
-    Connect {
-        /// The coordinator's address.
-        address: String,
-        /// The transport error.
-        #[source]
-        source: tonic::transport::Error,
-    },
-    /// The coordinator refused this worker (a protocol version mismatch).
+    /// The coordinator's URL is wrong for its token, or nothing answers.
+    #[error(transparent)]
+    Connect(#[from] farm_proto::connect::ConnectError),
+    /// The coordinator refused this worker (a protocol version mismatch,
+    /// or a token that is missing, unknown, revoked or not a worker's).
     #[error("the coordinator refused this worker: {message}")]
     Refused {
         /// The coordinator's explanation.

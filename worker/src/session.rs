@@ -9,14 +9,14 @@ use crate::error::Error;
 use crate::health;
 use crate::pool::CpuPool;
 use crate::renderer_cache::{RendererCache, DEFAULT_RENDERERS};
-use farm_proto::v1::coordinator_client::CoordinatorClient;
+use farm_proto::connect::{connect, Client, ConnectError};
 use farm_proto::v1::coordinator_message::Kind as FromCoordinator;
 use farm_proto::v1::worker_message::Kind as ToCoordinator;
 use farm_proto::v1::{
     Heartbeat, Hello, RegisterWorkerRequest, RegisterWorkerResponse, TileAssignment, TileResult,
     WorkerMessage,
 };
-use farm_proto::{MAX_MESSAGE_SIZE, PROTOCOL_VERSION};
+use farm_proto::PROTOCOL_VERSION;
 use std::collections::HashMap;
 use std::future::Future;
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -25,7 +25,6 @@ use std::time::Duration;
 use tokio::sync::{mpsc, oneshot, watch};
 use tokio::task::JoinSet;
 use tokio_stream::wrappers::ReceiverStream;
-use tonic::transport::{Channel, Endpoint};
 
 /// First and largest pause between attempts to reach the coordinator.
 const BACKOFF: (Duration, Duration) = (Duration::from_millis(200), Duration::from_secs(5));
@@ -132,7 +131,10 @@ async fn run_until_stopped(
                     SessionEnd::Lost(message) => return Err(Error::Stream { message }),
                 }
             }
-            Err(e @ (Error::Refused { .. } | Error::Address { .. })) => return Err(e),
+            Err(
+                e @ (Error::Refused { .. }
+                | Error::Connect(ConnectError::BadUrl(_) | ConnectError::NeedToken(_))),
+            ) => return Err(e),
             Err(e) if worker.config.reconnect => {
                 tracing::warn!(error = %e, retry_in_ms = delay.as_millis() as u64, "coordinator unreachable");
             }
@@ -148,25 +150,19 @@ async fn run_until_stopped(
 
 impl Worker {
     /// Connects and registers.
-    async fn register(
-        &self,
-    ) -> Result<(CoordinatorClient<Channel>, RegisterWorkerResponse), Error> {
-        let address = self.config.coordinator.clone();
-        let endpoint = Endpoint::from_shared(address.clone())
-            .map_err(|e| Error::Address { address: address.clone(), message: e.to_string() })?
-            .connect_timeout(Duration::from_secs(5));
-        let channel =
-            endpoint.connect().await.map_err(|source| Error::Connect { address, source })?;
-        let mut client = CoordinatorClient::new(channel)
-            .max_decoding_message_size(MAX_MESSAGE_SIZE)
-            .max_encoding_message_size(MAX_MESSAGE_SIZE);
+    async fn register(&self) -> Result<(Client, RegisterWorkerResponse), Error> {
+        let mut client = connect(&self.config.coordinator, self.config.token.as_ref()).await?;
         let request = RegisterWorkerRequest {
             protocol_version: PROTOCOL_VERSION,
             name: self.config.name.clone(),
             threads: u32::try_from(self.pool.threads()).unwrap_or(u32::MAX),
         };
         let reply = client.register_worker(request).await.map_err(|s| {
-            if s.code() == tonic::Code::FailedPrecondition {
+            use tonic::Code;
+            if matches!(
+                s.code(),
+                Code::FailedPrecondition | Code::Unauthenticated | Code::PermissionDenied
+            ) {
                 Error::Refused { message: s.message().to_string() }
             } else {
                 Error::Register { message: s.to_string() }
@@ -203,7 +199,7 @@ impl Worker {
     #[tracing::instrument(skip_all, fields(worker_id = reply.worker_id))]
     async fn session(
         &mut self,
-        client: CoordinatorClient<Channel>,
+        client: Client,
         reply: RegisterWorkerResponse,
         stop: &mut watch::Receiver<bool>,
     ) -> SessionEnd {
@@ -300,7 +296,7 @@ struct InFlight {
 
 impl InFlight {
     /// Starts rendering an assignment.
-    fn start(&mut self, worker: &Worker, client: &CoordinatorClient<Channel>, a: TileAssignment) {
+    fn start(&mut self, worker: &Worker, client: &Client, a: TileAssignment) {
         let (flag, n) = self.jobs.entry(a.job_id).or_default();
         *n += 1;
         let (renderers, pool) = (worker.renderers.clone(), worker.pool.clone());
@@ -483,9 +479,12 @@ mod tests {
         assert!(message.contains("protocol version"));
         // Nothing listens on port 1.
         let err = run(config("http://127.0.0.1:1".into(), false), std::future::pending()).await;
-        assert!(matches!(err, Err(Error::Connect { .. })));
+        assert!(matches!(err, Err(Error::Connect(ConnectError::Failed { .. }))));
         let err = run(config("not a uri".into(), true), std::future::pending()).await;
-        assert!(matches!(err, Err(Error::Address { .. })));
+        assert!(matches!(err, Err(Error::Connect(ConnectError::BadUrl(_)))));
+        // https needs a token to know which CA to trust, and says so.
+        let err = run(config("https://127.0.0.1:1".into(), true), std::future::pending()).await;
+        assert!(matches!(err, Err(Error::Connect(ConnectError::NeedToken(_)))));
     }
 
     #[tokio::test]

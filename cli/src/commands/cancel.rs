@@ -15,7 +15,14 @@ pub struct CancelArgs {
 
 /// Cancels the job and says whether it was still running.
 pub async fn run(args: CancelArgs) -> ExitCode {
-    match crate::client::cancel(&args.remote.coordinator, args.job).await {
+    let remote = match args.remote.remote() {
+        Ok(r) => r,
+        Err(e) => {
+            eprintln!("error: {e}");
+            return e.exit_code();
+        }
+    };
+    match crate::client::cancel(&remote, args.job).await {
         Ok(true) => {
             say!("job {} cancelled", args.job);
             ExitCode::SUCCESS

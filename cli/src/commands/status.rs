@@ -5,18 +5,38 @@ use std::process::ExitCode;
 
 /// Prints the jobs and the workers as two tables.
 pub async fn run(args: RemoteArgs) -> ExitCode {
-    match crate::client::status(&args.coordinator).await {
+    let remote = match args.remote() {
+        Ok(r) => r,
+        Err(e) => {
+            eprintln!("error: {e}");
+            return e.exit_code();
+        }
+    };
+    match crate::client::status(&remote).await {
         Ok(s) => {
-            say!("{:>6}  {:<28} {:<10} {:>13} {:>8}", "job", "name", "state", "tiles", "priority");
+            say!(
+                "{:>6}  {:<28} {:<16} {:<10} {:>13} {:>8} {:>8} {:>7}",
+                "job",
+                "name",
+                "owner",
+                "state",
+                "tiles",
+                "priority",
+                "attempts",
+                "retries"
+            );
             for j in &s.jobs {
                 let tiles = format!("{}/{}", j.tiles_done, j.tiles_total);
                 say!(
-                    "{:>6}  {:<28} {:<10} {:>13} {:>8}",
+                    "{:>6}  {:<28} {:<16} {:<10} {:>13} {:>8} {:>8} {:>7}",
                     j.job_id,
                     j.name,
+                    j.owner,
                     j.state,
                     tiles,
-                    j.priority
+                    j.priority,
+                    j.attempts,
+                    j.retries
                 );
             }
             say!();

@@ -27,10 +27,13 @@ pub struct SubmitArgs {
     /// render skipped.
     #[arg(short, long)]
     pub verbose: bool,
-    /// Render on the farm run by this coordinator (e.g. http://host:7878)
+    /// Render on the farm run by this coordinator (e.g. https://host:7878)
     /// instead of in this process.
     #[arg(long, env = "FARM_COORDINATOR")]
     pub coordinator: Option<String>,
+    /// The client token (with --coordinator).
+    #[command(flatten)]
+    pub token: super::TokenArgs,
     /// Job priority on the farm: higher runs first.
     #[arg(long, default_value_t = 0, allow_hyphen_values = true)]
     pub priority: i32,
@@ -58,7 +61,11 @@ pub fn run(args: SubmitArgs) -> ExitCode {
 }
 
 async fn run_remote(args: SubmitArgs) -> ExitCode {
-    let url = args.coordinator.clone().unwrap_or_default();
+    let token = match args.token.token() {
+        Ok(t) => t,
+        Err(e) => return fail(&e),
+    };
+    let remote = crate::client::Remote { url: args.coordinator.clone().unwrap_or_default(), token };
     let opts = crate::client::RemoteOptions {
         output: args.output.clone(),
         spp: args.spp,
@@ -67,7 +74,7 @@ async fn run_remote(args: SubmitArgs) -> ExitCode {
     };
     let bar = crate::progress::progress_bar(args.quiet);
     let started = std::time::Instant::now();
-    let result = crate::client::submit(&url, &args.scene, &opts, |job, p| {
+    let result = crate::client::submit(&remote, &args.scene, &opts, |job, p| {
         if bar.length().is_none() {
             bar.set_length(p.tiles_total as u64);
         }

@@ -5,9 +5,13 @@ use std::process::ExitCode;
 /// Arguments of `farm worker`.
 #[derive(Debug, clap::Args)]
 pub struct WorkerArgs {
-    /// The coordinator, e.g. http://render-host:7878.
+    /// The coordinator, e.g. https://render-host:7878 (http:// only for one
+    /// started with --insecure).
     #[arg(long, env = "FARM_COORDINATOR")]
     pub coordinator: String,
+    /// The worker token.
+    #[command(flatten)]
+    pub token: super::TokenArgs,
     /// Render threads (default: one per core).
     #[arg(long, default_value_t = 0)]
     pub threads: usize,
@@ -29,6 +33,13 @@ pub async fn run(args: WorkerArgs) -> ExitCode {
             .or_else(|| std::env::var("HOSTNAME").ok())
             .unwrap_or_else(|| "worker".into())
     });
+    let token = match args.token.token() {
+        Ok(t) => t,
+        Err(e) => {
+            eprintln!("error: {e}");
+            return e.exit_code();
+        }
+    };
     let config = farm_worker::WorkerConfig {
         coordinator: args.coordinator.clone(),
         threads: args.threads,
@@ -36,6 +47,7 @@ pub async fn run(args: WorkerArgs) -> ExitCode {
         max_in_flight: 0,
         health_listen: args.health_listen,
         reconnect: true,
+        token,
     };
     eprintln!("worker {} rendering for {}", config.name, config.coordinator);
     match farm_worker::run(config, crate::runtime::shutdown_signal()).await {

@@ -56,6 +56,17 @@ pub struct JobSpec {
     pub spp: u32,
     /// The film layout.
     pub geometry: FilmGeometry,
+    /// Who submitted it.
+    pub owner: Owner,
+}
+
+/// Who submitted a job: a token's id and name.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct Owner {
+    /// The token's id.
+    pub id: String,
+    /// The token's name.
+    pub name: String,
 }
 
 pub(super) struct Job {
@@ -93,6 +104,12 @@ pub struct JobRow {
     pub total: u32,
     /// Priority.
     pub priority: i32,
+    /// Who submitted it.
+    pub owner: Owner,
+    /// Tile hand-outs so far.
+    pub attempts: u32,
+    /// Hand-outs of a tile after its first.
+    pub retries: u32,
 }
 
 impl Scheduler {
@@ -292,6 +309,11 @@ impl Scheduler {
                 stats: j.stats,
             },
         })
+    }
+
+    /// Who submitted a job, if it exists.
+    pub fn owner(&self, job: JobId) -> Option<&Owner> {
+        self.jobs.get(&job).map(|j| &j.spec.owner)
     }
 
     /// The state of a job.

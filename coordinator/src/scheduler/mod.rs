@@ -14,7 +14,7 @@ mod outbox;
 mod tests;
 mod workers;
 
-pub use jobs::{JobRow, JobSpec, JobState};
+pub use jobs::{JobRow, JobSpec, JobState, Owner};
 pub use outbox::{Assignment, FinishedJob, JobUpdate, Outbox};
 pub use workers::WorkerRow;
 
@@ -81,6 +81,9 @@ impl Scheduler {
                 done: j.done_tiles,
                 total: j.spec.geometry.tile_count(),
                 priority: j.spec.priority,
+                owner: j.spec.owner.clone(),
+                attempts: j.attempts.values().sum(),
+                retries: j.attempts.values().map(|a| a.saturating_sub(1)).sum(),
             })
             .collect();
         let workers = self

@@ -72,6 +72,7 @@ fn spec(priority: i32) -> JobSpec {
         spp_override: 0,
         spp: 4,
         geometry: geometry(),
+        owner: Owner::default(),
     }
 }
 

@@ -74,6 +74,13 @@ pub enum Event {
         /// Whether it was cancelled.
         reply: oneshot::Sender<bool>,
     },
+    /// Who submitted a job.
+    Owner {
+        /// The job.
+        job: JobId,
+        /// Its owner, if the job exists.
+        reply: oneshot::Sender<Option<crate::scheduler::Owner>>,
+    },
     /// Time passes: find silent workers.
     Tick,
     /// Stop: fail unfinished jobs and close every stream.
@@ -209,6 +216,9 @@ pub async fn run(mut rx: mpsc::UnboundedReceiver<Event>, config: ServerConfig) {
             }
             Event::Cancel { job, reply } => {
                 let _ = reply.send(sched.cancel(job, &mut out));
+            }
+            Event::Owner { job, reply } => {
+                let _ = reply.send(sched.owner(job).cloned());
             }
             Event::Tick => sched.tick(now, &mut out),
             Event::Shutdown => {

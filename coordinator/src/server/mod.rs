@@ -10,6 +10,7 @@ pub use blobs::BlobStore;
 pub use events::{Event, FromWorker};
 
 use crate::scheduler::SchedulerConfig;
+use crate::security::{Authenticate, Security};
 use farm_common::film::Limits;
 use farm_proto::v1::coordinator_server::CoordinatorServer;
 use farm_proto::MAX_MESSAGE_SIZE;
@@ -17,7 +18,9 @@ use std::future::Future;
 use std::time::Duration;
 use tokio::net::TcpListener;
 use tokio::sync::mpsc;
+use tonic::service::interceptor::InterceptedService;
 use tonic::transport::server::TcpIncoming;
+use tonic::transport::{Identity, ServerTlsConfig};
 
 /// Settings of a coordinator.
 #[derive(Clone, Debug)]
@@ -29,6 +32,8 @@ pub struct ServerConfig {
     pub scheduler: SchedulerConfig,
     /// The largest film and sample counts a job may have.
     pub limits: Limits,
+    /// TLS and tokens, or neither (loopback only).
+    pub security: Security,
 }
 
 impl Default for ServerConfig {
@@ -47,6 +52,7 @@ impl ServerConfig {
                 ..Default::default()
             },
             limits: Limits::default(),
+            security: Security::Insecure,
         }
     }
 }
@@ -80,8 +86,16 @@ pub async fn serve(
     let grpc = CoordinatorServer::new(svc)
         .max_decoding_message_size(MAX_MESSAGE_SIZE)
         .max_encoding_message_size(MAX_MESSAGE_SIZE);
+    // Every call of the farm's service is authenticated first; the health
+    // service answers anyone (probes carry no token).
+    let grpc = InterceptedService::new(grpc, Authenticate(config.security.clone()));
     let stop_events = events.clone();
-    let result = tonic::transport::Server::builder()
+    let mut builder = tonic::transport::Server::builder();
+    if let Security::Tls { identity, .. } = &config.security {
+        let id = Identity::from_pem(&identity.chain_pem, &identity.key_pem);
+        builder = builder.tls_config(ServerTlsConfig::new().identity(id))?;
+    }
+    let result = builder
         .add_service(health_service)
         .add_service(grpc)
         // Tiles and assignments are small messages: no Nagle delays.

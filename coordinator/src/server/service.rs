@@ -4,9 +4,11 @@
 use super::blobs::BlobStore;
 use super::events::{Event, FromWorker};
 use crate::error::Error;
-use crate::scheduler::JobSpec;
+use crate::scheduler::{JobSpec, Owner};
+use crate::security::{require, Action, Principal};
 use farm_common::film::Limits;
 use farm_common::ids::{JobId, WorkerId};
+use farm_proto::auth::Role;
 use farm_proto::convert::{blob_chunks, decode_manifest};
 use farm_proto::v1::{self, coordinator_server::Coordinator, worker_message};
 use farm_proto::{default_in_flight, PROTOCOL_VERSION};
@@ -51,6 +53,23 @@ impl CoordinatorService {
         // The registry's invariants hold between statements: a panic
         // elsewhere cannot leave it half-changed.
         self.registered.lock().unwrap_or_else(|p| p.into_inner())
+    }
+
+    /// Refuses a client's call about a job another token submitted (an
+    /// admin may act on any job).
+    async fn check_owner(&self, by: &Principal, job: JobId) -> Result<(), Status> {
+        if by.role == Role::Admin {
+            return Ok(());
+        }
+        let (reply, rx) = oneshot::channel();
+        self.send(Event::Owner { job, reply })?;
+        match answer(rx).await? {
+            Some(owner) if owner.id != by.id => {
+                warn!(job = job.0, token = %by.id, "call refused: another client's job");
+                Err(Error::NotYourJob(job.0).into())
+            }
+            _ => Ok(()),
+        }
     }
 
     fn send(&self, ev: Event) -> Result<(), Status> {
@@ -125,6 +144,7 @@ impl Coordinator for CoordinatorService {
         &self,
         req: Request<v1::RegisterWorkerRequest>,
     ) -> Result<Response<v1::RegisterWorkerResponse>, Status> {
+        require(&req, Action::Work)?;
         let r = req.into_inner();
         if let Err(e) = check_version(r.protocol_version) {
             warn!(name = %r.name, version = r.protocol_version, "worker refused: protocol mismatch");
@@ -146,6 +166,7 @@ impl Coordinator for CoordinatorService {
         &self,
         req: Request<Streaming<v1::WorkerMessage>>,
     ) -> Result<Response<Self::WorkStream>, Status> {
+        require(&req, Action::Work)?;
         let mut inbound = req.into_inner();
         let first = inbound.message().await?.ok_or(Error::EmptyWorkStream)?;
         let Some(worker_message::Kind::Hello(hello)) = first.kind else {
@@ -195,6 +216,7 @@ impl Coordinator for CoordinatorService {
         &self,
         req: Request<v1::FetchBlobRequest>,
     ) -> Result<Response<Self::FetchBlobStream>, Status> {
+        require(&req, Action::Work)?;
         let hash = req.into_inner().hash;
         let data = self.blobs.get(&hash).ok_or(Error::NoBlob)?;
         let parts = blob_chunks(&hash, &data);
@@ -205,6 +227,7 @@ impl Coordinator for CoordinatorService {
         &self,
         req: Request<Streaming<v1::BlobChunk>>,
     ) -> Result<Response<v1::UploadBlobResponse>, Status> {
+        require(&req, Action::Submit)?;
         let mut stream = req.into_inner();
         let mut parts = Vec::new();
         while let Some(c) = stream.next().await {
@@ -220,6 +243,7 @@ impl Coordinator for CoordinatorService {
         &self,
         req: Request<v1::SubmitJobRequest>,
     ) -> Result<Response<v1::SubmitJobResponse>, Status> {
+        let by = require(&req, Action::Submit)?;
         let r = req.into_inner();
         check_version(r.protocol_version)?;
         let manifest = self.blobs.get(&r.scene_hash).ok_or(Error::NoManifest)?;
@@ -247,6 +271,7 @@ impl Coordinator for CoordinatorService {
             spp_override: r.spp,
             spp,
             geometry,
+            owner: Owner { id: by.id, name: by.name },
         };
         let (reply, rx) = oneshot::channel();
         self.send(Event::Submit { spec, reply })?;
@@ -260,7 +285,9 @@ impl Coordinator for CoordinatorService {
         &self,
         req: Request<v1::WatchJobRequest>,
     ) -> Result<Response<Self::WatchJobStream>, Status> {
+        let by = require(&req, Action::Submit)?;
         let job = JobId(req.into_inner().job_id);
+        self.check_owner(&by, job).await?;
         let (tx, rx) = mpsc::unbounded_channel();
         let (reply, known) = oneshot::channel();
         self.send(Event::Watch { job, tx, reply })?;
@@ -274,11 +301,16 @@ impl Coordinator for CoordinatorService {
 
     async fn get_status(
         &self,
-        _req: Request<v1::GetStatusRequest>,
+        req: Request<v1::GetStatusRequest>,
     ) -> Result<Response<v1::GetStatusResponse>, Status> {
+        let by = require(&req, Action::Submit)?;
         let (reply, rx) = oneshot::channel();
         self.send(Event::Status { reply })?;
-        let (jobs, workers) = answer(rx).await?;
+        let (mut jobs, workers) = answer(rx).await?;
+        // A client lists its own jobs; an admin every job.
+        if by.role != Role::Admin {
+            jobs.retain(|j| j.owner.id == by.id);
+        }
         Ok(Response::new(v1::GetStatusResponse {
             jobs: jobs
                 .into_iter()
@@ -289,6 +321,9 @@ impl Coordinator for CoordinatorService {
                     tiles_done: j.done,
                     tiles_total: j.total,
                     priority: j.priority,
+                    owner: j.owner.name,
+                    attempts: j.attempts,
+                    retries: j.retries,
                 })
                 .collect(),
             workers: workers
@@ -308,7 +343,9 @@ impl Coordinator for CoordinatorService {
         &self,
         req: Request<v1::CancelJobRequest>,
     ) -> Result<Response<v1::CancelJobResponse>, Status> {
+        let by = require(&req, Action::Submit)?;
         let job = JobId(req.into_inner().job_id);
+        self.check_owner(&by, job).await?;
         let (reply, rx) = oneshot::channel();
         self.send(Event::Cancel { job, reply })?;
         let cancelled = answer(rx).await?;
