@@ -6,6 +6,8 @@
 pub mod cluster;
 /// A worker driven by hand.
 pub mod fake;
+/// The bodies of the fuzz targets.
+pub mod fuzz;
 
 use farm_cli::embedded::{self as submit, RenderSummary, SubmitOptions};
 use farm_common::image::RgbImage;

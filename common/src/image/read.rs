@@ -222,7 +222,8 @@ fn tga_colour(p: &[u8], depth: usize) -> Px {
 fn read_pfm(bytes: &[u8]) -> Result<RgbImage, ImageError> {
     let mut pos = 0;
     let mut word = || -> Result<String, ImageError> {
-        let start = pos;
+        let start = pos.min(bytes.len());
+        pos = start;
         while pos < bytes.len() && !matches!(bytes[pos], b' ' | b'\n' | b'\t') {
             pos += 1;
         }
@@ -241,8 +242,11 @@ fn read_pfm(bytes: &[u8]) -> Result<RgbImage, ImageError> {
     let w: usize = word()?.trim().parse().map_err(|_| malformed("bad PFM width"))?;
     let h: usize = word()?.trim().parse().map_err(|_| malformed("bad PFM height"))?;
     let scale: f32 = word()?.trim().parse().map_err(|_| malformed("bad PFM scale"))?;
-    let n = channels * w * h;
-    let data = bytes.get(pos..pos + 4 * n).ok_or_else(|| malformed("PFM data truncated"))?;
+    let n = w.checked_mul(h).and_then(|p| p.checked_mul(channels));
+    let end = n.and_then(|n| n.checked_mul(4)).and_then(|b| b.checked_add(pos));
+    let data = end
+        .and_then(|end| bytes.get(pos..end))
+        .ok_or_else(|| malformed("PFM data truncated (or its size overflows)"))?;
     let little = scale < 0.0;
     let abs_scale = scale.abs();
     let vals: Vec<f32> = data
