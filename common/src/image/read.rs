@@ -42,6 +42,23 @@ pub fn read_image(bytes: &[u8], file_name: &str) -> Result<RgbImage, ImageError>
     }
 }
 
+/// The most pixels an image a scene names may have (256 M: 3 GiB of RGB).
+const MAX_IMAGE_PIXELS: usize = 1 << 28;
+
+/// Refuses a header whose size could make the reader allocate more than
+/// its bytes can hold: at most `ratio` pixels per input byte (the format's
+/// best compression), and [`MAX_IMAGE_PIXELS`] in all. Checked before
+/// anything is allocated for the pixels.
+fn check_size(w: usize, h: usize, len: usize, ratio: usize) -> Result<(), ImageError> {
+    let fits = |px: usize| px <= MAX_IMAGE_PIXELS && px <= len.saturating_mul(ratio) + 64;
+    match w.checked_mul(h) {
+        Some(px) if fits(px) => Ok(()),
+        _ => Err(ImageError::Malformed(format!(
+            "the header says {w}×{h} pixels, more than its {len} bytes can hold or over {MAX_IMAGE_PIXELS} pixels"
+        ))),
+    }
+}
+
 fn malformed(msg: &str) -> ImageError {
     ImageError::Malformed(msg.to_string())
 }
@@ -52,6 +69,8 @@ fn read_png(bytes: &[u8]) -> Result<RgbImage, ImageError> {
     let mut decoder = png::Decoder::new(Cursor::new(bytes));
     decoder.set_transformations(png::Transformations::EXPAND);
     let mut reader = decoder.read_info()?;
+    // Deflate packs at most 1032 bytes into one; a pixel takes at least 1 bit.
+    check_size(reader.info().width as usize, reader.info().height as usize, bytes.len(), 8300)?;
     let size = reader.output_buffer_size().ok_or_else(|| malformed("PNG too large"))?;
     let mut buf = vec![0u8; size];
     let info = reader.next_frame(&mut buf)?;
@@ -78,6 +97,12 @@ fn read_png(bytes: &[u8]) -> Result<RgbImage, ImageError> {
 /// The first RGB(A) layer of an EXR, or its luminance channel `Y`.
 fn read_exr(bytes: &[u8]) -> Result<RgbImage, ImageError> {
     use exr::prelude::{read, ReadChannels, ReadLayers, ReadSpecificChannel};
+    // The pixel buffers below are allocated from the header's size.
+    let meta = exr::meta::MetaData::read_from_buffered(Cursor::new(bytes), false)
+        .map_err(|e| ImageError::Malformed(format!("EXR header: {e}")))?;
+    for h in &meta.headers {
+        check_size(h.layer_size.width(), h.layer_size.height(), bytes.len(), 8300)?;
+    }
     type Buf = (Vec<Px>, usize);
     let rgb = read()
         .no_deep_data()
@@ -138,6 +163,8 @@ fn read_tga(bytes: &[u8]) -> Result<RgbImage, ImageError> {
     if bpp == 0 || bpp > 4 {
         return Err(malformed("unsupported TGA pixel depth"));
     }
+    // A run-length packet of 1 + bpp bytes repeats a pixel up to 128 times.
+    check_size(w, h, bytes.len(), if rle { 128 } else { 1 })?;
     let mut pos = 18 + id_len;
     // Colour map.
     let cmap_bpp = cmap_depth.div_ceil(8);
@@ -397,5 +424,17 @@ mod tests {
         assert_eq!(read_image(&be, "b.pfm").unwrap().pixels[0], splat(3.0));
         assert!(read_image(&be[..12], "b.pfm").is_err());
         assert!(matches!(read_image(&be, "b.jpg"), Err(ImageError::UnknownFormat(_))));
+    }
+
+    #[test]
+    fn headers_claiming_more_pixels_than_their_bytes_are_refused_before_allocating() {
+        // A 65535×65535 TGA (51 GB as RGB f32) with six bytes of pixels.
+        let mut tga = vec![0u8, 0, 10, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0xff, 0xff, 0xff, 0xff, 24, 0];
+        tga.extend([0x81, 1, 2, 3, 0x81, 4, 5, 6]);
+        let e = read_image(&tga, "x.tga").unwrap_err().to_string();
+        assert!(e.contains("65535×65535"), "{e}");
+        let e = read_pfm(b"PF\n99999999999 99999999999\n-1\n").unwrap_err().to_string();
+        assert!(e.contains("truncated"), "{e}");
+        assert!(read_pfm(b"PF").is_err());
     }
 }
