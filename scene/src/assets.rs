@@ -71,9 +71,11 @@ impl Builder {
         let Some((path, loc)) = string_param(entity, param, dir) else {
             return Ok(());
         };
-        let bytes = read_file(&path, &loc)?;
         let key = asset_key(&self.root, &path);
-        self.scene.assets.entry(key.clone()).or_insert(bytes);
+        if !self.scene.assets.contains_key(&key) {
+            let bytes = read_file(&path, &loc)?;
+            self.scene.assets.insert(key.clone(), bytes);
+        }
         for p in &mut entity.params.params {
             if p.name == param {
                 if let ParamValue::String(v) = &mut p.value {

@@ -35,6 +35,23 @@ pub fn render_text(name: &str, source: &str, opts: &SubmitOptions) -> RenderSumm
     }
 }
 
+/// The project's example scene (`scenes/example.pbrt`).
+pub fn example_scene() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../scenes/example.pbrt")
+}
+
+/// An image's floats as bits, for bit-for-bit comparisons.
+pub fn bits(img: &RgbImage) -> Vec<u32> {
+    img.pixels.iter().flat_map(|p| p.map(f32::to_bits)).collect()
+}
+
+/// The example scene rendered in this process at `spp` on two threads:
+/// the reference every farm render must match bit for bit.
+pub fn embedded_example(spp: u32) -> RgbImage {
+    let opts = SubmitOptions { spp: Some(spp), threads: 2, ..Default::default() };
+    submit::render(&example_scene(), &opts, |_| {}).expect("embedded render").image
+}
+
 /// The pixel at (x, y).
 pub fn pixel(img: &RgbImage, x: usize, y: usize) -> [f32; 3] {
     img.pixels[y * img.width + x]

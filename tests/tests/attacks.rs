@@ -4,29 +4,19 @@
 //! bit as the embedded render.
 
 use farm_cli::client::{self, RemoteOptions};
-use farm_cli::embedded::{self as submit, SubmitOptions};
 use farm_common::film::{FilmGeometry, FilmTile};
 use farm_common::ids::TileId;
 use farm_common::image::RgbImage;
 use farm_proto::v1;
 use farm_tests::cluster::TestCluster;
 use farm_tests::fake::{open_session, FakeWorker};
-use std::path::{Path, PathBuf};
+use farm_tests::{bits, example_scene as scene};
 use std::time::Duration;
 
 const SPP: u32 = 2;
 
-fn scene() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("../scenes/example.pbrt")
-}
-
-fn bits(img: &RgbImage) -> Vec<u32> {
-    img.pixels.iter().flat_map(|p| p.map(f32::to_bits)).collect()
-}
-
 fn embedded() -> RgbImage {
-    let opts = SubmitOptions { spp: Some(SPP), threads: 2, ..Default::default() };
-    submit::render(&scene(), &opts, |_| {}).expect("embedded render").image
+    farm_tests::embedded_example(SPP)
 }
 
 fn geometry() -> FilmGeometry {

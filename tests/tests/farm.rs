@@ -9,23 +9,14 @@ use farm_proto::v1::{
 };
 use farm_proto::PROTOCOL_VERSION;
 use farm_tests::cluster::TestCluster;
-use std::path::{Path, PathBuf};
+use farm_tests::{bits, example_scene as scene};
 use std::time::Duration;
 use tokio::sync::mpsc;
 
 const SPP: u32 = 2;
 
-fn scene() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("../scenes/example.pbrt")
-}
-
-fn bits(img: &RgbImage) -> Vec<u32> {
-    img.pixels.iter().flat_map(|p| p.map(f32::to_bits)).collect()
-}
-
 fn embedded() -> RgbImage {
-    let opts = SubmitOptions { spp: Some(SPP), threads: 2, ..Default::default() };
-    submit::render(&scene(), &opts, |_| {}).expect("embedded render").image
+    farm_tests::embedded_example(SPP)
 }
 
 async fn remote(url: &str) -> RgbImage {

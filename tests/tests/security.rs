@@ -5,25 +5,16 @@
 //! embedded render.
 
 use farm_cli::client::{self, Remote, RemoteOptions};
-use farm_cli::embedded::{self as submit, SubmitOptions};
-use farm_common::image::RgbImage;
 use farm_coordinator::security::{bootstrap, Security};
 use farm_proto::connect::connect;
 use farm_proto::v1;
 use farm_proto::PROTOCOL_VERSION;
 use farm_tests::cluster::{token_in, TestCluster};
-use std::path::{Path, PathBuf};
+use farm_tests::{bits, example_scene as scene};
+use std::path::PathBuf;
 use std::time::Duration;
 
 const SPP: u32 = 2;
-
-fn scene() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("../scenes/example.pbrt")
-}
-
-fn bits(img: &RgbImage) -> Vec<u32> {
-    img.pixels.iter().flat_map(|p| p.map(f32::to_bits)).collect()
-}
 
 fn temp(name: &str) -> PathBuf {
     let d = std::env::temp_dir().join(format!("farm-sec-{name}-{}", std::process::id()));
@@ -45,9 +36,8 @@ async fn over_tls_with_tokens_the_image_is_the_embedded_one() {
     assert!(cluster.url.starts_with("https://"));
     let opts = RemoteOptions { spp: Some(SPP), ..Default::default() };
     let farm = client::submit(&cluster.remote(), &scene(), &opts, |_, _| {}).await.expect("farm");
-    let local = SubmitOptions { spp: Some(SPP), threads: 2, ..Default::default() };
-    let embedded = submit::render(&scene(), &local, |_| {}).expect("embedded");
-    assert!(bits(&farm.image) == bits(&embedded.image), "TLS changed the image");
+    let embedded = farm_tests::embedded_example(SPP);
+    assert!(bits(&farm.image) == bits(&embedded), "TLS changed the image");
     // farm status names the owner and counts hand-outs.
     let s = client::status(&cluster.remote()).await.expect("status");
     assert_eq!(s.jobs[0].owner, "first client");

@@ -83,7 +83,10 @@ fn advertised(args: &CoordinatorArgs) -> Vec<String> {
     hosts
 }
 
-fn security(args: &CoordinatorArgs) -> Result<(Security, Option<PathBuf>), String> {
+fn security(
+    args: &CoordinatorArgs,
+    hosts: &[String],
+) -> Result<(Security, Option<PathBuf>), String> {
     if args.insecure {
         if !args.listen.ip().is_loopback() {
             return Err(format!(
@@ -95,13 +98,14 @@ fn security(args: &CoordinatorArgs) -> Result<(Security, Option<PathBuf>), Strin
     }
     let dir = state_dir(args.state_dir.as_deref());
     let given = args.tls_cert.as_deref().zip(args.tls_key.as_deref());
-    let s = security::bootstrap(&dir, &advertised(args), given).map_err(|e| e.to_string())?;
+    let s = security::bootstrap(&dir, hosts, given).map_err(|e| e.to_string())?;
     Ok((s, Some(dir)))
 }
 
 /// Listens, then serves until SIGINT or SIGTERM.
 pub async fn run(args: CoordinatorArgs) -> ExitCode {
-    let (security, dir) = match security(&args) {
+    let hosts = advertised(&args);
+    let (security, dir) = match security(&args, &hosts) {
         Ok(s) => s,
         Err(e) => {
             eprintln!("error: {e}");
@@ -133,7 +137,7 @@ pub async fn run(args: CoordinatorArgs) -> ExitCode {
         Some(d) => eprintln!(
             "coordinator listening on https://{addr} (tokens in {}; the certificate names {})",
             d.display(),
-            advertised(&args).join(", ")
+            hosts.join(", ")
         ),
         None => eprintln!("coordinator listening on http://{addr} (insecure: no TLS, no tokens)"),
     }
