@@ -44,7 +44,7 @@ pub async fn upload(client: &mut Client, blob: &Blob) -> Result<(), Error> {
 }
 
 /// Options of a remote render.
-#[derive(Clone, Debug, Default)]
+#[derive(Clone, Debug)]
 pub struct RemoteOptions {
     /// Output file (overrides the scene's).
     pub output: Option<PathBuf>,
@@ -54,6 +54,23 @@ pub struct RemoteOptions {
     pub priority: i32,
     /// Upload files outside the scene's folder too.
     pub allow_assets_outside: bool,
+    /// Keep the job running with no client watching it.
+    pub detach: bool,
+    /// How long to keep reconnecting to a coordinator that went away.
+    pub reconnect_for: std::time::Duration,
+}
+
+impl Default for RemoteOptions {
+    fn default() -> Self {
+        RemoteOptions {
+            output: None,
+            spp: None,
+            priority: 0,
+            allow_assets_outside: false,
+            detach: false,
+            reconnect_for: std::time::Duration::from_secs(600),
+        }
+    }
 }
 
 /// Progress of a remote job.
@@ -69,14 +86,26 @@ pub struct RemoteProgress {
     pub stats: RayStats,
 }
 
-/// Parses `scene` here, uploads it, renders it on the farm and returns the
-/// image (not yet written).
-pub async fn submit(
+/// A job submitted, not yet finished.
+pub struct Submitted {
+    /// Its id.
+    pub job: u64,
+    /// The connection it was submitted on.
+    pub client: Client,
+    /// The scene as parsed here.
+    pub desc: farm_common::scene::SceneDescription,
+    /// The parser's warnings.
+    pub warnings: Vec<farm_common::scene::Warning>,
+    /// Seconds from the start to the job's id.
+    pub startup_seconds: f64,
+}
+
+/// Parses `scene` here, uploads it and submits the job.
+pub async fn start(
     remote: &Remote,
     scene: &Path,
     opts: &RemoteOptions,
-    mut progress: impl FnMut(u64, &RemoteProgress),
-) -> Result<RenderSummary, Error> {
+) -> Result<Submitted, Error> {
     let start = Instant::now();
     let (desc, warnings) = farm_scene::parse_file(scene)?;
     let outside: Vec<String> =
@@ -85,7 +114,6 @@ pub async fn submit(
         let folder = scene.parent().filter(|p| !p.as_os_str().is_empty()).unwrap_or(Path::new("."));
         return Err(Error::AssetsOutside { folder: folder.display().to_string(), paths: outside });
     }
-    let (film, _) = FilmGeometry::from_description(&desc);
     let (manifest, assets) = encode_scene(&desc).map_err(|e| Error::Protocol(e.to_string()))?;
     let mut client = connect(remote).await?;
     for blob in assets.iter().chain(std::iter::once(&manifest)) {
@@ -98,24 +126,118 @@ pub async fn submit(
             spp: opts.spp.unwrap_or(0),
             priority: opts.priority,
             name: scene.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default(),
+            detach: opts.detach,
         })
         .await?
         .into_inner()
         .job_id;
-    let startup_seconds = start.elapsed().as_secs_f64();
+    Ok(Submitted { job, client, desc, warnings, startup_seconds: start.elapsed().as_secs_f64() })
+}
+
+/// Parses `scene` here, uploads it, renders it on the farm and returns the
+/// image (not yet written).
+pub async fn submit(
+    remote: &Remote,
+    scene: &Path,
+    opts: &RemoteOptions,
+    mut progress: impl FnMut(u64, &RemoteProgress),
+) -> Result<RenderSummary, Error> {
+    let Submitted { job, client, desc, warnings, startup_seconds } =
+        start(remote, scene, opts).await?;
+    let (film, _) = FilmGeometry::from_description(&desc);
+    let done = follow(remote, job, Some(client), opts.reconnect_for, |p| progress(job, p)).await?;
+    Ok(RenderSummary {
+        image: done.image,
+        error: done.error,
+        output: opts.output.clone().unwrap_or_else(|| PathBuf::from(&film.filename)),
+        stats: done.stats,
+        spp: done.spp,
+        startup_seconds,
+        render_seconds: done.render_seconds,
+        features: Features::of(&desc),
+        scene_name: desc.name,
+        warnings,
+    })
+}
+
+/// A finished job's image as the coordinator sent it.
+#[derive(Clone, Debug)]
+pub struct JobImage {
+    /// The image.
+    pub image: farm_common::image::RgbImage,
+    /// The render's estimate of its own error.
+    pub error: Option<ErrorEstimate>,
+    /// Samples per pixel.
+    pub spp: u32,
+    /// Seconds the farm rendered.
+    pub render_seconds: f64,
+    /// Rays traced.
+    pub stats: RayStats,
+}
+
+/// Whether a failed call may succeed against the coordinator later: it
+/// restarted, or the network between us failed. A refusal (no such job,
+/// not yours, a bad token) is final.
+fn transient(e: &Error) -> bool {
+    use tonic::Code;
+    match e {
+        Error::Rpc(s) => matches!(s.code(), Code::Unavailable | Code::Unknown | Code::Cancelled),
+        Error::Connect(farm_proto::connect::ConnectError::Failed { .. }) => true,
+        Error::Protocol(_) => true,
+        _ => false,
+    }
+}
+
+/// Follows `job` to its image, reconnecting with backoff whenever the
+/// coordinator goes away (it restarts, or the network fails) for up to
+/// `reconnect_for` without hearing from it.
+pub async fn follow(
+    remote: &Remote,
+    job: u64,
+    mut client: Option<Client>,
+    reconnect_for: std::time::Duration,
+    mut progress: impl FnMut(&RemoteProgress),
+) -> Result<JobImage, Error> {
+    let mut backoff = std::time::Duration::from_millis(100);
+    let mut last_heard = Instant::now();
+    loop {
+        let attempt = async {
+            let mut c = match client.take() {
+                Some(c) => c,
+                None => connect(remote).await?,
+            };
+            watch_once(&mut c, job, &mut progress, &mut last_heard).await
+        };
+        match attempt.await {
+            Ok(image) => return Ok(image),
+            Err(e) if transient(&e) && last_heard.elapsed() < reconnect_for => {
+                tracing::warn!(job, error = %e, "lost the coordinator; reconnecting");
+                tokio::time::sleep(backoff).await;
+                backoff = (backoff * 2).min(std::time::Duration::from_secs(5));
+            }
+            Err(e) => return Err(e),
+        }
+    }
+}
+
+/// One WatchJob stream, to the image, a failure, or a broken stream.
+async fn watch_once(
+    client: &mut Client,
+    job: u64,
+    progress: &mut impl FnMut(&RemoteProgress),
+    last_heard: &mut Instant,
+) -> Result<JobImage, Error> {
     let mut events = client.watch_job(v1::WatchJobRequest { job_id: job }).await?.into_inner();
     let mut assembler = ImageAssembler::default();
     while let Some(ev) = events.message().await? {
+        *last_heard = Instant::now();
         match ev.kind {
-            Some(job_event::Kind::Progress(p)) => progress(
-                job,
-                &RemoteProgress {
-                    tiles_done: p.tiles_done,
-                    tiles_total: p.tiles_total,
-                    workers: p.workers_active,
-                    stats: p.stats.as_ref().map(RayStats::from).unwrap_or_default(),
-                },
-            ),
+            Some(job_event::Kind::Progress(p)) => progress(&RemoteProgress {
+                tiles_done: p.tiles_done,
+                tiles_total: p.tiles_total,
+                workers: p.workers_active,
+                stats: p.stats.as_ref().map(RayStats::from).unwrap_or_default(),
+            }),
             Some(job_event::Kind::Image(img)) => {
                 let Some(done) = assembler.add(&img).map_err(|e| Error::Protocol(e.to_string()))?
                 else {
@@ -128,17 +250,12 @@ pub async fn submit(
                     per_pixel,
                     rel_mse,
                 });
-                return Ok(RenderSummary {
+                return Ok(JobImage {
                     image: done.image,
                     error,
-                    output: opts.output.clone().unwrap_or_else(|| PathBuf::from(&film.filename)),
-                    stats: done.facts.stats,
                     spp: done.facts.spp,
-                    startup_seconds,
                     render_seconds: done.facts.render_seconds,
-                    features: Features::of(&desc),
-                    scene_name: desc.name,
-                    warnings,
+                    stats: done.facts.stats,
                 });
             }
             Some(job_event::Kind::Failed(f)) => return Err(Error::JobFailed(f.message)),

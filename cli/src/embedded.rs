@@ -165,6 +165,8 @@ where
         spp,
         geometry,
         owner: Default::default(),
+        detach: false,
+        blobs: Vec::new(),
     };
     let (results, inbox) = mpsc::channel();
     let mut out = LocalOutbox {

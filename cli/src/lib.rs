@@ -58,6 +58,8 @@ pub enum Command {
     Status(commands::RemoteArgs),
     /// Cancel a job on a coordinator.
     Cancel(commands::cancel::CancelArgs),
+    /// Attach to a job on a coordinator and write its image when it is done.
+    Watch(commands::watch::WatchArgs),
     /// Make, list and revoke a coordinator's tokens (on its host).
     Token(commands::token::TokenArgs),
     /// Exit 0 if the gRPC health service at an address reports SERVING.
@@ -86,6 +88,7 @@ pub fn run(cli: Cli) -> ExitCode {
         Command::Worker(args) => block_on_one_thread(commands::worker::run(args)),
         Command::Status(args) => block_on(commands::status::run(args)),
         Command::Cancel(args) => block_on(commands::cancel::run(args)),
+        Command::Watch(args) => block_on(commands::watch::run(args)),
         Command::Token(args) => commands::token::run(args),
         Command::Diff(args) => commands::diff::run(&args),
         Command::Converge(args) => commands::converge::run(&args),

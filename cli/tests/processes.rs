@@ -33,8 +33,13 @@ fn scene() -> PathBuf {
 /// `state`, logging at debug level to `state/../coordinator.log`; returns
 /// its https:// URL.
 fn start_coordinator(procs: &mut Procs, state: &Path) -> String {
+    start_coordinator_on(procs, state, "127.0.0.1:0", "coordinator.log")
+}
+
+/// [`start_coordinator`] on `listen`, logging to `log` beside `state`.
+fn start_coordinator_on(procs: &mut Procs, state: &Path, listen: &str, log: &str) -> String {
     let mut coord = farm()
-        .args(["coordinator", "--listen", "127.0.0.1:0", "--heartbeat", "0.2", "--state-dir"])
+        .args(["coordinator", "--listen", listen, "--heartbeat", "0.2", "--state-dir"])
         .arg(state)
         .env("FARM_LOG", "debug")
         .stderr(Stdio::piped())
@@ -43,7 +48,7 @@ fn start_coordinator(procs: &mut Procs, state: &Path) -> String {
     let stderr = coord.stderr.take().expect("stderr");
     procs.0.push(coord);
     let mut reader = BufReader::new(stderr);
-    let log = state.parent().expect("parent").join("coordinator.log");
+    let log = state.parent().expect("parent").join(log);
     let mut log = std::fs::File::create(log).expect("log file");
     let mut line = String::new();
     while !line.contains("coordinator listening on") {
@@ -126,6 +131,124 @@ fn sigkill_of_a_worker_process_changes_no_byte() {
     let a = std::fs::read(&farm_out).expect("farm image");
     let b = std::fs::read(&embedded_out).expect("embedded image");
     assert!(a == b, "the farm's image differs from the embedded render");
+}
+
+/// A loopback port free now (bound and released), to restart a
+/// coordinator on the same address.
+fn free_port() -> u16 {
+    std::net::TcpListener::bind("127.0.0.1:0").expect("bind").local_addr().expect("addr").port()
+}
+
+fn status(
+    rt: &tokio::runtime::Runtime,
+    remote: &farm_cli::client::Remote,
+) -> Option<farm_proto::v1::GetStatusResponse> {
+    rt.block_on(farm_cli::client::status(remote)).ok()
+}
+
+#[test]
+fn sigkill_of_the_coordinator_loses_only_the_tiles_in_flight() {
+    let dir = std::env::temp_dir().join(format!("farm-procs-restart-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).expect("temp dir");
+    let state = dir.join("state");
+    let listen = format!("127.0.0.1:{}", free_port());
+    let mut procs = Procs(Vec::new());
+    let url = start_coordinator_on(&mut procs, &state, &listen, "coordinator.log");
+    let worker_token = token_file(&state, "worker");
+    let client_token = token_file(&state, "client");
+    for name in ["w1", "w2"] {
+        let w = farm()
+            .args(["worker", "--coordinator", &url, "--threads", "1", "--name", name])
+            .arg("--token-file")
+            .arg(&worker_token)
+            .stderr(Stdio::null())
+            .spawn()
+            .expect("start worker");
+        procs.0.push(w);
+    }
+    let farm_out = dir.join("farm.pfm");
+    let submit = farm()
+        .args(["submit", "--quiet", "--spp", "8", "--coordinator", &url, "-o"])
+        .arg(&farm_out)
+        .arg("--token-file")
+        .arg(&client_token)
+        .arg(scene())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("start submit");
+
+    // SIGKILL the coordinator once a third of the job is in.
+    let rt = tokio::runtime::Builder::new_current_thread().enable_all().build().expect("runtime");
+    let text = std::fs::read_to_string(&client_token).expect("client token");
+    let remote = farm_cli::client::Remote { url: url.clone(), token: Some(text.parse().unwrap()) };
+    let deadline = Instant::now() + Duration::from_secs(120);
+    let mut done_at_kill = None;
+    while Instant::now() < deadline && done_at_kill.is_none() {
+        if let Some(s) = status(&rt, &remote) {
+            if let Some(j) = s.jobs.first() {
+                if j.tiles_total > 0 && j.tiles_done * 3 >= j.tiles_total {
+                    procs.0[0].kill().expect("SIGKILL coordinator");
+                    procs.0[0].wait().expect("reap coordinator");
+                    done_at_kill = Some((j.tiles_done, j.tiles_total));
+                }
+            }
+        }
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    let (done_at_kill, total) = done_at_kill.expect("the job never got a third done");
+
+    // The same state directory, the same address: the job resumes, the
+    // workers register again and the client reconnects to its job.
+    start_coordinator_on(&mut procs, &state, &listen, "coordinator-2.log");
+    let out = submit.wait_with_output().expect("submit finished");
+    assert!(out.status.success(), "farm submit failed: {}", String::from_utf8_lossy(&out.stderr));
+    let s = status(&rt, &remote).expect("status after the restart");
+    let j = s.jobs.first().expect("the job survived the restart");
+    assert_eq!((j.state.as_str(), j.tiles_done, j.tiles_total), ("done", total, total));
+    // Rendered twice: the tiles in flight when the coordinator died (two
+    // workers of one thread hold at most 6 each) and any whose result had
+    // not been committed yet. Everything before survived.
+    let window = 2 * farm_proto::default_in_flight(1);
+    eprintln!(
+        "coordinator killed with {done_at_kill} of {total} tiles in; {} rendered again after the restart",
+        j.retries
+    );
+    assert!(
+        j.retries <= window,
+        "{} tiles were rendered again after the restart, more than the {window} in flight ({done_at_kill} of {total} were done)",
+        j.retries
+    );
+    assert!(done_at_kill > window, "the kill came too early to tell");
+    assert_eq!(j.attempts, total + j.retries);
+
+    let embedded_out = dir.join("embedded.pfm");
+    let status = farm()
+        .args(["submit", "--quiet", "--spp", "8", "-o"])
+        .arg(&embedded_out)
+        .arg(scene())
+        .status()
+        .expect("embedded render");
+    assert!(status.success());
+    let a = std::fs::read(&farm_out).expect("farm image");
+    let b = std::fs::read(&embedded_out).expect("embedded image");
+    assert!(a == b, "the image after a coordinator restart differs from the embedded render");
+
+    // `farm watch` fetches the finished image from anywhere, again.
+    let watched = dir.join("watched.pfm");
+    let (code, _, err) = run(&[
+        "watch",
+        &j.job_id.to_string(),
+        "--coordinator",
+        &url,
+        "--token-file",
+        &client_token.to_string_lossy(),
+        "-o",
+        &watched.to_string_lossy(),
+    ]);
+    assert_eq!(code, Some(0), "{err}");
+    assert!(std::fs::read(&watched).expect("watched image") == a, "farm watch wrote another image");
+    drop(procs);
+    std::fs::remove_dir_all(dir).ok();
 }
 
 /// Runs `farm ARGS` to the end; its exit code and standard error.

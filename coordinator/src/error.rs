@@ -73,6 +73,15 @@ pub enum Error {
     /// A film tile whose sums no render could produce.
     #[error("tile {0} is refused: {1}")]
     BadPixels(u32, String),
+    /// An upload over a client's quota or the store's limit.
+    #[error("upload refused: {0}")]
+    QuotaExceeded(String),
+    /// The blob store's disk failed.
+    #[error("the blob store failed: {0}")]
+    Store(String),
+    /// The state directory could not be opened.
+    #[error(transparent)]
+    State(#[from] crate::state::StateError),
     /// The gRPC transport failed.
     #[error("gRPC server: {0}")]
     Transport(#[from] tonic::transport::Error),
@@ -107,9 +116,12 @@ impl From<Error> for Status {
             | Error::UnknownTile(..)
             | Error::WrongDimensions(_)
             | Error::BadPixels(..) => Status::invalid_argument(message),
-            Error::Transport(_) | Error::Scheduler(_) | Error::Random(_) => {
-                Status::internal(message)
-            }
+            Error::QuotaExceeded(_) => Status::resource_exhausted(message),
+            Error::Transport(_)
+            | Error::Scheduler(_)
+            | Error::Random(_)
+            | Error::Store(_)
+            | Error::State(_) => Status::internal(message),
         }
     }
 }

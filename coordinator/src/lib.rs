@@ -18,5 +18,7 @@ pub mod scheduler;
 pub mod security;
 /// The coordinator gRPC server.
 pub mod server;
+/// The journal and blob store in the state directory.
+pub mod state;
 
 pub use error::{Error, Result};

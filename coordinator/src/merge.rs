@@ -59,6 +59,16 @@ impl Film {
     /// Takes one tile result; validates it, ignores duplicates, and merges
     /// every tile whose turn has come.
     pub fn accept(&mut self, id: TileId, tile: FilmTile) -> Result<Accepted, Error> {
+        let verdict = self.check(id, &tile)?;
+        if verdict == Accepted::New {
+            self.insert(id, tile);
+        }
+        Ok(verdict)
+    }
+
+    /// Whether a tile result would be taken, without taking it: it must be
+    /// inside the film, the tile's size, and have sums a render can make.
+    pub fn check(&self, id: TileId, tile: &FilmTile) -> Result<Accepted, Error> {
         let count = self.geometry.tile_count();
         if id.0 >= count {
             return Err(Error::UnknownTile(id.0, count));
@@ -70,18 +80,23 @@ impl Film {
         {
             return Err(Error::WrongDimensions(id.0));
         }
-        if let Some(problem) = bad_pixels(&tile, self.geometry.signed_weights) {
+        if let Some(problem) = bad_pixels(tile, self.geometry.signed_weights) {
             return Err(Error::BadPixels(id.0, problem));
         }
         if self.has(id) {
             return Ok(Accepted::Duplicate);
         }
+        Ok(Accepted::New)
+    }
+
+    /// Takes a tile [`Film::check`] found new, and merges every tile whose
+    /// turn has come.
+    pub fn insert(&mut self, id: TileId, tile: FilmTile) {
         self.pending.insert(id.0, tile);
         while let Some(t) = self.pending.remove(&self.next) {
             self.sums.merge(&t);
             self.next += 1;
         }
-        Ok(Accepted::New)
     }
 
     /// The render's estimate of its own error (`None` at one sample per pixel).

@@ -5,6 +5,51 @@ use farm_coordinator::security::{self, Security};
 use std::net::SocketAddr;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
+use std::time::Duration;
+
+/// "90", "90s", "30m", "24h", "7d" as a duration.
+pub fn parse_duration(s: &str) -> Result<Duration, String> {
+    let s = s.trim();
+    let (num, unit) = s.split_at(s.find(|c: char| c.is_ascii_alphabetic()).unwrap_or(s.len()));
+    let n: f64 = num
+        .trim()
+        .parse()
+        .map_err(|_| format!("{s:?} is not a time such as 90s, 30m, 24h or 7d"))?;
+    let scale = match unit {
+        "" | "s" => 1.0,
+        "m" => 60.0,
+        "h" => 3600.0,
+        "d" => 86400.0,
+        _ => return Err(format!("unknown unit {unit:?} in {s:?}: use s, m, h or d")),
+    };
+    let secs = n * scale;
+    if !(0.0..=1e10).contains(&secs) {
+        return Err(format!("{s:?} is out of range"));
+    }
+    Ok(Duration::from_secs_f64(secs))
+}
+
+/// "1048576", "500M", "16G", "1T" (powers of 1024; a trailing "B" or "iB" is allowed) as bytes.
+pub fn parse_bytes(s: &str) -> Result<u64, String> {
+    let t = s.trim();
+    let t = t.strip_suffix("iB").or_else(|| t.strip_suffix('B')).unwrap_or(t);
+    let (num, unit) = t.split_at(t.find(|c: char| c.is_ascii_alphabetic()).unwrap_or(t.len()));
+    let n: f64 =
+        num.trim().parse().map_err(|_| format!("{s:?} is not a size such as 500M or 16G"))?;
+    let shift = match unit {
+        "" => 0,
+        "K" | "k" => 10,
+        "M" => 20,
+        "G" => 30,
+        "T" => 40,
+        _ => return Err(format!("unknown unit {unit:?} in {s:?}: use K, M, G or T")),
+    };
+    let v = n * (1u64 << shift) as f64;
+    if !(0.0..1.8e19).contains(&v) {
+        return Err(format!("{s:?} is out of range"));
+    }
+    Ok(v as u64)
+}
 
 /// Arguments of `farm coordinator`.
 #[derive(Debug, clap::Args)]
@@ -43,6 +88,22 @@ pub struct CoordinatorArgs {
     /// The most tiles one worker may hold at once, whatever it asks for.
     #[arg(long, value_name = "N", default_value_t = 256)]
     pub max_in_flight: u32,
+    /// How long a finished, failed or cancelled job (and its image) is
+    /// kept for `farm watch` before it is purged with the blobs no other
+    /// job needs: 90s, 30m, 24h, 7d.
+    #[arg(long, value_name = "TIME", default_value = "24h", value_parser = parse_duration)]
+    pub keep_finished: Duration,
+    /// A job not submitted with --detach is cancelled when no client has
+    /// watched it for this long.
+    #[arg(long, value_name = "TIME", default_value = "2m", value_parser = parse_duration)]
+    pub client_grace: Duration,
+    /// The most bytes of scenes and assets one client (token) may have
+    /// stored: 500M, 16G.
+    #[arg(long, value_name = "BYTES", default_value = "16G", value_parser = parse_bytes)]
+    pub client_quota: u64,
+    /// The most bytes of scenes and assets stored in all.
+    #[arg(long, value_name = "BYTES", default_value = "64G", value_parser = parse_bytes)]
+    pub store_limit: u64,
     /// The largest job to accept.
     #[command(flatten)]
     pub limits: super::LimitArgs,
@@ -83,10 +144,7 @@ fn advertised(args: &CoordinatorArgs) -> Vec<String> {
     hosts
 }
 
-fn security(
-    args: &CoordinatorArgs,
-    hosts: &[String],
-) -> Result<(Security, Option<PathBuf>), String> {
+fn security(args: &CoordinatorArgs, hosts: &[String], dir: &Path) -> Result<Security, String> {
     if args.insecure {
         if !args.listen.ip().is_loopback() {
             return Err(format!(
@@ -94,18 +152,17 @@ fn security(
                 args.listen
             ));
         }
-        return Ok((Security::Insecure, None));
+        return Ok(Security::Insecure);
     }
-    let dir = state_dir(args.state_dir.as_deref());
     let given = args.tls_cert.as_deref().zip(args.tls_key.as_deref());
-    let s = security::bootstrap(&dir, hosts, given).map_err(|e| e.to_string())?;
-    Ok((s, Some(dir)))
+    security::bootstrap(dir, hosts, given).map_err(|e| e.to_string())
 }
 
 /// Listens, then serves until SIGINT or SIGTERM.
 pub async fn run(args: CoordinatorArgs) -> ExitCode {
     let hosts = advertised(&args);
-    let (security, dir) = match security(&args, &hosts) {
+    let dir = state_dir(args.state_dir.as_deref());
+    let security = match security(&args, &hosts, &dir) {
         Ok(s) => s,
         Err(e) => {
             eprintln!("error: {e}");
@@ -133,18 +190,31 @@ pub async fn run(args: CoordinatorArgs) -> ExitCode {
     let heartbeat = std::time::Duration::from_secs_f64(args.heartbeat.clamp(0.05, 3600.0));
     let addr =
         listener.local_addr().map(|a| a.to_string()).unwrap_or_else(|_| args.listen.to_string());
-    match &dir {
-        Some(d) => eprintln!(
-            "coordinator listening on https://{addr} (tokens in {}; the certificate names {})",
-            d.display(),
+    match &security {
+        Security::Tls { .. } => eprintln!(
+            "coordinator listening on https://{addr} (state and tokens in {}; the certificate names {})",
+            dir.display(),
             hosts.join(", ")
         ),
-        None => eprintln!("coordinator listening on http://{addr} (insecure: no TLS, no tokens)"),
+        Security::Insecure => eprintln!(
+            "coordinator listening on http://{addr} (insecure: no TLS, no tokens; state in {})",
+            dir.display()
+        ),
     }
     let mut config = farm_coordinator::server::ServerConfig::with_heartbeat(heartbeat);
     config.limits = (&args.limits).into();
     config.security = security;
     config.scheduler.max_in_flight = args.max_in_flight.max(1);
+    config.client_grace = args.client_grace;
+    config.state = farm_coordinator::state::StateConfig {
+        dir: Some(dir),
+        keep_finished: args.keep_finished,
+        blobs: farm_coordinator::state::BlobLimits {
+            client_quota: args.client_quota,
+            store_limit: args.store_limit,
+            ..Default::default()
+        },
+    };
     match farm_coordinator::server::serve(listener, config, crate::runtime::shutdown_signal()).await
     {
         Ok(()) => ExitCode::SUCCESS,

@@ -9,6 +9,7 @@ pub mod health;
 pub mod status;
 pub mod submit;
 pub mod token;
+pub mod watch;
 pub mod worker;
 
 use crate::client::Remote;

@@ -46,6 +46,16 @@ pub struct SubmitArgs {
     /// send your other files to a farm).
     #[arg(long)]
     pub allow_assets_outside: bool,
+    /// Submit the job and exit, printing its id: it renders on with no
+    /// client attached, and `farm watch ID` fetches its image (with
+    /// --coordinator). Without it, a job whose client has been gone longer
+    /// than the coordinator's grace period is cancelled.
+    #[arg(long, requires = "coordinator")]
+    pub detach: bool,
+    /// Seconds to keep reconnecting to a coordinator that went away (it
+    /// restarted, or the network failed) before giving up.
+    #[arg(long, value_name = "SECONDS", default_value_t = 600.0)]
+    pub reconnect_for: f64,
     /// The largest render to start (embedded; a coordinator has its own).
     #[command(flatten)]
     pub limits: super::LimitArgs,
@@ -71,22 +81,33 @@ async fn run_remote(args: SubmitArgs) -> ExitCode {
         spp: args.spp,
         priority: args.priority,
         allow_assets_outside: args.allow_assets_outside,
+        detach: args.detach,
+        reconnect_for: reconnect_for(args.reconnect_for),
     };
+    if args.detach {
+        return match crate::client::start(&remote, &args.scene, &opts).await {
+            Ok(s) => {
+                if !args.quiet {
+                    for w in &s.warnings {
+                        eprintln!("{w}");
+                    }
+                }
+                say!("{}", s.job);
+                if !args.quiet {
+                    eprintln!(
+                        "job {} submitted; `farm watch {} -o FILE --coordinator {}` writes its image",
+                        s.job, s.job, remote.url
+                    );
+                }
+                ExitCode::SUCCESS
+            }
+            Err(e) => fail(&e),
+        };
+    }
     let bar = crate::progress::progress_bar(args.quiet);
-    let started = std::time::Instant::now();
-    let result = crate::client::submit(&remote, &args.scene, &opts, |job, p| {
-        if bar.length().is_none() {
-            bar.set_length(p.tiles_total as u64);
-        }
-        bar.set_position(p.tiles_done as u64);
-        let secs = started.elapsed().as_secs_f64().max(1e-3);
-        bar.set_message(format!(
-            "job {job}, {} workers, {:.2} Mrays/s",
-            p.workers,
-            p.stats.total_rays() as f64 / secs / 1e6
-        ));
-    })
-    .await;
+    let result =
+        crate::client::submit(&remote, &args.scene, &opts, |job, p| show_progress(&bar, job, p))
+            .await;
     bar.finish_and_clear();
     match result {
         Ok(summary) => finish(&args, summary),
@@ -174,6 +195,28 @@ fn finish(args: &SubmitArgs, summary: embedded::RenderSummary) -> ExitCode {
         );
     }
     ExitCode::SUCCESS
+}
+
+/// A `--reconnect-for` in seconds as a duration.
+pub fn reconnect_for(seconds: f64) -> std::time::Duration {
+    std::time::Duration::from_secs_f64(if seconds.is_finite() {
+        seconds.clamp(0.0, 1e9)
+    } else {
+        0.0
+    })
+}
+
+/// Shows a remote job's progress on `bar`.
+pub fn show_progress(bar: &indicatif::ProgressBar, job: u64, p: &crate::client::RemoteProgress) {
+    if bar.length() != Some(p.tiles_total as u64) {
+        bar.set_length(p.tiles_total as u64);
+    }
+    bar.set_position(p.tiles_done as u64);
+    bar.set_message(format!(
+        "job {job}, {} workers, {}M rays",
+        p.workers,
+        p.stats.total_rays() / 1_000_000
+    ));
 }
 
 /// Prints a render error and returns its exit code.

@@ -1,7 +1,7 @@
 //! Handing out tiles.
 
 use super::jobs::JobState;
-use super::{Assignment, Outbox, Scheduler};
+use super::{Assignment, Outbox, Record, Scheduler};
 use farm_common::ids::{JobId, TileId, WorkerId};
 use std::time::Instant;
 
@@ -52,6 +52,7 @@ impl Scheduler {
                         *a - 1
                     };
                     j.in_flight.insert(tile, (wid, attempt));
+                    out.record(Record::HandedOut { job: *jid, tile: TileId(tile), n: attempt + 1 });
                     if j.state == JobState::Queued {
                         j.state = JobState::Running;
                         j.started = Some(Instant::now());

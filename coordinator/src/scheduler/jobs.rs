@@ -1,10 +1,10 @@
 //! Jobs: their life from submission to image, failure or cancellation,
 //! and what each tile result does to them.
 
-use super::{FinishedJob, JobUpdate, Outbox, Scheduler};
+use super::{FinishedJob, JobUpdate, Outbox, Record, Scheduler};
 use crate::merge::{Accepted, Film};
 use farm_common::film::{FilmGeometry, FilmTile};
-use farm_common::ids::{JobId, TileAttempt, WorkerId};
+use farm_common::ids::{JobId, TileAttempt, TileId, WorkerId};
 use farm_common::stats::RayStats;
 use std::collections::{HashMap, HashSet, VecDeque};
 use std::time::{Duration, Instant};
@@ -42,7 +42,7 @@ impl JobState {
 }
 
 /// A job as submitted.
-#[derive(Clone, Debug)]
+#[derive(Clone, Debug, serde::Serialize, serde::Deserialize)]
 pub struct JobSpec {
     /// A name for listings.
     pub name: String,
@@ -58,10 +58,16 @@ pub struct JobSpec {
     pub geometry: FilmGeometry,
     /// Who submitted it.
     pub owner: Owner,
+    /// Whether it runs on when no client is watching it (`farm submit
+    /// --detach`); otherwise a client gone for longer than the grace
+    /// period cancels it.
+    pub detach: bool,
+    /// The blobs it needs: its manifest and assets (kept while it is).
+    pub blobs: Vec<[u8; 32]>,
 }
 
 /// Who submitted a job: a token's id and name.
-#[derive(Clone, Debug, Default, PartialEq, Eq)]
+#[derive(Clone, Debug, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 pub struct Owner {
     /// The token's id.
     pub id: String,
@@ -84,6 +90,17 @@ pub(super) struct Job {
     pub(super) done_tiles: u32,
     pub(super) last_progress: Instant,
     pub(super) finished: Option<std::sync::Arc<FinishedJob>>,
+    /// When it ended (seconds since the epoch), for its retention.
+    pub(super) ended_at: Option<i64>,
+}
+
+/// What a new watcher of a job is told first.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Snapshot {
+    /// This update.
+    Update(JobUpdate),
+    /// The job is done and its image is in the journal.
+    Stored,
 }
 
 /// Longest quiet spell between progress updates of a running job.
@@ -134,7 +151,9 @@ impl Scheduler {
             done_tiles: 0,
             last_progress: Instant::now(),
             finished: None,
+            ended_at: None,
         };
+        out.record(Record::Submitted { job: id, spec: &job.spec });
         self.jobs.insert(id, job);
         if total == 0 {
             self.finish(id, out);
@@ -191,8 +210,10 @@ impl Scheduler {
         self.release(worker, job, tile.0);
         let j = self.jobs.get_mut(&job).expect("held tiles belong to known jobs");
         let film = j.film.as_mut().expect("active jobs have a film");
-        match film.accept(tile, film_tile) {
+        match film.check(tile, &film_tile) {
             Ok(Accepted::New) => {
+                out.record(Record::Merged { job, tile, film_tile: &film_tile, stats: &stats });
+                film.insert(tile, film_tile);
                 j.in_flight.remove(&tile.0);
                 j.stats.add(&stats);
                 j.done_tiles += 1;
@@ -263,15 +284,26 @@ impl Scheduler {
 
     /// Cancels a job; returns whether it was still active.
     pub fn cancel(&mut self, job: JobId, out: &mut impl Outbox) -> bool {
+        self.cancel_because(job, "the job was cancelled".into(), out)
+    }
+
+    /// Cancels a job, telling its watchers why; returns whether it was
+    /// still active.
+    pub fn cancel_because(&mut self, job: JobId, why: String, out: &mut impl Outbox) -> bool {
         let Some(j) = self.jobs.get_mut(&job) else { return false };
         if !j.state.is_active() {
             return false;
         }
         self.stop(job, JobState::Cancelled, out);
-        info!(job = job.0, "job cancelled");
-        out.notify(job, JobUpdate::Failed("the job was cancelled".into()));
+        info!(job = job.0, %why, "job cancelled");
+        out.notify(job, JobUpdate::Failed(why));
         self.fill(out);
         true
+    }
+
+    /// The queued and running jobs, each with whether it was detached.
+    pub fn active_jobs(&self) -> Vec<(JobId, bool)> {
+        self.jobs.values().filter(|j| j.state.is_active()).map(|j| (j.id, j.spec.detach)).collect()
     }
 
     /// Fails an active job that cannot finish (an embedded render whose
@@ -285,8 +317,14 @@ impl Scheduler {
         true
     }
 
-    /// Fails every active job (coordinator shutting down).
+    /// The coordinator is shutting down. With a journal, active jobs stay
+    /// as they are, to resume when it starts again; without, they fail.
     pub fn shutdown(&mut self, out: &mut impl Outbox) {
+        if out.durable() {
+            let active = self.jobs.values().filter(|j| j.state.is_active()).count();
+            info!(jobs = active, "active jobs will resume when the coordinator starts again");
+            return;
+        }
         for (id, j) in &mut self.jobs {
             if j.state.is_active() {
                 j.state = JobState::Failed("the coordinator is shutting down".into());
@@ -295,11 +333,14 @@ impl Scheduler {
         }
     }
 
-    /// The current update for a new watcher of `job`, if the job exists.
-    pub fn snapshot(&self, job: JobId) -> Option<JobUpdate> {
+    /// What a new watcher of `job` is told first, if the job exists.
+    pub fn snapshot(&self, job: JobId) -> Option<Snapshot> {
         let j = self.jobs.get(&job)?;
-        Some(match &j.state {
-            JobState::Done => JobUpdate::Finished(j.finished.clone()?),
+        let update = match &j.state {
+            JobState::Done => match &j.finished {
+                Some(f) => JobUpdate::Finished(f.clone()),
+                None => return Some(Snapshot::Stored),
+            },
             JobState::Failed(m) => JobUpdate::Failed(m.clone()),
             JobState::Cancelled => JobUpdate::Failed("the job was cancelled".into()),
             _ => JobUpdate::Progress {
@@ -308,7 +349,8 @@ impl Scheduler {
                 workers: 0,
                 stats: j.stats,
             },
-        })
+        };
+        Some(Snapshot::Update(update))
     }
 
     /// Who submitted a job, if it exists.
@@ -366,6 +408,8 @@ impl Scheduler {
     fn stop(&mut self, job: JobId, state: JobState, out: &mut impl Outbox) {
         let Some(j) = self.jobs.get_mut(&job) else { return };
         j.state = state;
+        j.ended_at = Some(crate::state::unix_now());
+        out.record(Record::Ended { job, state: &j.state, image: None });
         j.film = None;
         j.pending.clear();
         let holders: HashSet<WorkerId> = j.in_flight.drain().map(|(_, (w, _))| w).collect();
@@ -390,8 +434,105 @@ impl Scheduler {
             stats: j.stats,
         });
         j.state = JobState::Done;
-        j.finished = Some(finished.clone());
+        j.ended_at = Some(crate::state::unix_now());
+        out.record(Record::Ended { job, state: &j.state, image: Some(&finished) });
+        // With a journal the image is read back from it: memory does not
+        // grow with the jobs kept for their retention period.
+        j.finished = (!out.durable()).then(|| finished.clone());
         info!(job = job.0, seconds = render_seconds, "job done");
         out.notify(job, JobUpdate::Finished(finished));
+    }
+}
+
+impl Scheduler {
+    /// The id the next submitted job gets (after a restart: past every job
+    /// the journal has seen).
+    pub fn set_next_job(&mut self, next: u64) {
+        self.next_job = self.next_job.max(next);
+    }
+
+    /// Puts back a job read from the journal: an ended one as it ended; an
+    /// active one with its accepted tiles merged again in tile order (so
+    /// the image is bit-identical to an uninterrupted render) and every
+    /// other tile queued.
+    pub fn restore(&mut self, saved: crate::state::SavedJob, out: &mut impl Outbox) {
+        use crate::state::Ending;
+        let id = JobId(saved.id);
+        let total = saved.spec.geometry.tile_count();
+        let state = match saved.ending {
+            Some(Ending::Done) => JobState::Done,
+            Some(Ending::Failed(m)) => JobState::Failed(m),
+            Some(Ending::Cancelled) => JobState::Cancelled,
+            None if saved.attempts.is_empty() => JobState::Queued,
+            None => JobState::Running,
+        };
+        let mut job = Job {
+            id,
+            film: None,
+            state,
+            pending: VecDeque::new(),
+            in_flight: HashMap::new(),
+            attempts: saved.attempts.into_iter().collect(),
+            failures: HashMap::new(),
+            worker_failures: HashMap::new(),
+            stats: RayStats::default(),
+            started: None,
+            done_tiles: 0,
+            last_progress: Instant::now(),
+            finished: None,
+            ended_at: saved.ended_at,
+            spec: saved.spec,
+        };
+        if job.state == JobState::Done {
+            job.done_tiles = total;
+        }
+        if job.state.is_active() {
+            let mut film = Film::new(job.spec.geometry.clone());
+            for (tile, ft, stats) in saved.tiles {
+                match film.check(TileId(tile), &ft) {
+                    Ok(Accepted::New) => {
+                        film.insert(TileId(tile), ft);
+                        job.stats.add(&stats);
+                        job.done_tiles += 1;
+                    }
+                    Ok(Accepted::Duplicate) => {}
+                    Err(e) => {
+                        warn!(job = id.0, tile, error = %e, "a journalled tile is refused: it renders again")
+                    }
+                }
+            }
+            job.pending = (0..total).filter(|t| !film.has(TileId(*t))).collect();
+            job.film = Some(film);
+            if job.state == JobState::Running {
+                job.started = Some(Instant::now());
+            }
+            info!(job = id.0, done = job.done_tiles, total, "job resumed");
+        }
+        self.next_job = self.next_job.max(id.0 + 1);
+        let complete = job.film.as_ref().is_some_and(|f| f.is_complete());
+        self.jobs.insert(id, job);
+        if complete {
+            self.finish(id, out);
+        }
+        self.fill(out);
+    }
+
+    /// Forgets the jobs that ended more than `keep` before `now` (seconds
+    /// since the epoch) and returns them, for the journal to purge.
+    pub fn expire(&mut self, now: i64, keep: Duration) -> Vec<JobId> {
+        let keep = keep.as_secs() as i64;
+        let old: Vec<JobId> = self
+            .jobs
+            .values()
+            .filter(|j| {
+                !j.state.is_active() && j.ended_at.is_some_and(|t| t.saturating_add(keep) <= now)
+            })
+            .map(|j| j.id)
+            .collect();
+        for id in &old {
+            self.jobs.remove(id);
+            info!(job = id.0, "finished job purged after its retention period");
+        }
+        old
     }
 }

@@ -14,8 +14,8 @@ mod outbox;
 mod tests;
 mod workers;
 
-pub use jobs::{JobRow, JobSpec, JobState, Owner};
-pub use outbox::{Assignment, FinishedJob, JobUpdate, Outbox};
+pub use jobs::{JobRow, JobSpec, JobState, Owner, Snapshot};
+pub use outbox::{Assignment, FinishedJob, JobUpdate, Outbox, Record};
 pub use workers::WorkerRow;
 
 use farm_common::ids::{JobId, WorkerId};

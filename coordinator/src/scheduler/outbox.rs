@@ -1,7 +1,9 @@
 //! The scheduler's way out, and what goes through it: tiles to workers and
 //! updates to a job's watchers.
 
+use super::jobs::{JobSpec, JobState};
 use crate::estimate::ErrorEstimate;
+use farm_common::film::FilmTile;
 use farm_common::ids::{JobId, TileAttempt, TileId, WorkerId};
 use farm_common::image::RgbImage;
 use farm_common::stats::RayStats;
@@ -63,6 +65,48 @@ pub struct FinishedJob {
     pub error: Option<ErrorEstimate>,
 }
 
+/// A change the scheduler asks to be made durable, so that a restarted
+/// coordinator resumes where it was.
+#[derive(Debug)]
+pub enum Record<'a> {
+    /// A job was accepted.
+    Submitted {
+        /// Its id.
+        job: JobId,
+        /// Its spec.
+        spec: &'a JobSpec,
+    },
+    /// A tile was handed out for the `n`th time.
+    HandedOut {
+        /// The job.
+        job: JobId,
+        /// The tile.
+        tile: TileId,
+        /// Hand-outs so far.
+        n: u32,
+    },
+    /// A tile's result was accepted (merged now or waiting for its turn).
+    Merged {
+        /// The job.
+        job: JobId,
+        /// The tile.
+        tile: TileId,
+        /// Its sums.
+        film_tile: &'a FilmTile,
+        /// Its rays.
+        stats: &'a RayStats,
+    },
+    /// A job ended: done (with its image), failed or cancelled.
+    Ended {
+        /// The job.
+        job: JobId,
+        /// How.
+        state: &'a JobState,
+        /// The image of a finished job.
+        image: Option<&'a FinishedJob>,
+    },
+}
+
 /// The scheduler's way out: messages to workers and to a job's watchers.
 pub trait Outbox {
     /// Send a tile to a worker.
@@ -73,4 +117,12 @@ pub trait Outbox {
     fn disconnect(&mut self, worker: WorkerId);
     /// Tell a job's watchers something happened.
     fn notify(&mut self, job: JobId, update: JobUpdate);
+    /// Make a change durable (nothing, unless the outbox keeps a journal).
+    fn record(&mut self, _change: Record<'_>) {}
+    /// Whether changes are kept across restarts: then a finished job's image
+    /// is read back from the journal rather than kept in memory, and a
+    /// shutdown leaves active jobs to resume.
+    fn durable(&self) -> bool {
+        false
+    }
 }

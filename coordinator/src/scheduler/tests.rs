@@ -73,6 +73,8 @@ fn spec(priority: i32) -> JobSpec {
         spp: 4,
         geometry: geometry(),
         owner: Owner::default(),
+        detach: false,
+        blobs: Vec::new(),
     }
 }
 
@@ -320,4 +322,108 @@ fn impossible_sums_are_a_retryable_failure_of_the_worker_that_sent_them() {
     s.tile_done(w2, a2.key(), bad, RayStats::default(), &mut out);
     drain(&mut s, &mut out, |_| 0);
     assert!(out.image(job) == Some(reference), "image differs");
+}
+
+/// A recorder whose changes also go to a journal, as the server's do.
+struct Durable {
+    rec: Recorder,
+    journal: crate::state::Journal,
+}
+
+impl Outbox for Durable {
+    fn assign(&mut self, worker: WorkerId, a: Assignment) {
+        self.rec.assign(worker, a)
+    }
+    fn cancel(&mut self, worker: WorkerId, job: JobId) {
+        self.rec.cancel(worker, job)
+    }
+    fn disconnect(&mut self, worker: WorkerId) {
+        self.rec.disconnect(worker)
+    }
+    fn notify(&mut self, job: JobId, update: JobUpdate) {
+        self.rec.notify(job, update)
+    }
+    fn record(&mut self, change: Record<'_>) {
+        self.journal.record(change)
+    }
+    fn durable(&self) -> bool {
+        true
+    }
+}
+
+#[tokio::test]
+async fn a_journalled_job_resumes_to_the_same_bits() {
+    let reference = reference_image();
+    let dir = std::env::temp_dir().join(format!("farm-journal-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let db = dir.join("farm.db");
+    let _ = std::fs::remove_file(&db);
+    let g = geometry();
+    let total = g.tile_count();
+    // A coordinator gets a third of the tiles in, with more in flight, and dies.
+    let merged = {
+        let (journal, restored) = crate::state::Journal::open(Some(&db)).unwrap();
+        assert!(restored.jobs.is_empty());
+        let mut s = Scheduler::new(SchedulerConfig::default());
+        let mut out = Durable { rec: Recorder::default(), journal: journal.clone() };
+        s.worker_joined(WorkerId(1), "a".into(), 1, 4, Instant::now(), &mut out);
+        let job = s.submit(spec(0), &mut out);
+        let mut merged = 0;
+        // Answer out of order: the last of each batch first.
+        while merged < total / 3 {
+            let mut batch = out.rec.take();
+            batch.reverse();
+            let (w, a) = batch.remove(0);
+            s.tile_done(w, a.key(), render(&g, a.tile), RayStats::default(), &mut out);
+            out.rec.assigned.extend(batch);
+            merged += 1;
+        }
+        assert_eq!(s.job_state(job), Some(&JobState::Running));
+        journal.flush().await;
+        merged
+    };
+    // The next coordinator resumes the job with those tiles and renders
+    // only the others; the image is the uninterrupted render's, bit for bit.
+    let (journal, restored) = crate::state::Journal::open(Some(&db)).unwrap();
+    assert_eq!(restored.next_job, 2);
+    let saved = restored.jobs.into_iter().next().expect("the job was journalled");
+    assert_eq!(saved.tiles.len(), merged as usize);
+    assert!(saved.ending.is_none());
+    let attempts_before: u32 = saved.attempts.iter().map(|(_, n)| n).sum();
+    assert!(attempts_before > merged, "tiles in flight were journalled as handed out");
+    let mut s = Scheduler::new(SchedulerConfig::default());
+    let mut out = Durable { rec: Recorder::default(), journal: journal.clone() };
+    s.restore(saved, &mut out);
+    s.set_next_job(restored.next_job);
+    s.worker_joined(WorkerId(7), "b".into(), 1, 3, Instant::now(), &mut out);
+    let mut handed = 0;
+    let mut queue = out.rec.take();
+    while let Some((w, a)) = queue.pop() {
+        handed += 1;
+        s.tile_done(w, a.key(), render(&g, a.tile), RayStats::default(), &mut out);
+        queue.extend(out.rec.take());
+    }
+    assert_eq!(handed, total - merged, "only the missing tiles render again");
+    let image = out.rec.image(JobId(1)).expect("finished after the restart");
+    let bits = |i: &RgbImage| i.pixels.iter().flat_map(|p| p.map(f32::to_bits)).collect::<Vec<_>>();
+    assert_eq!(bits(&image), bits(&reference));
+    assert_eq!(s.snapshot(JobId(1)), Some(Snapshot::Stored), "the image is read from the journal");
+    let (row, _) = s.status();
+    assert_eq!(
+        row[0].retries,
+        attempts_before - merged,
+        "each tile in flight at the end was retried"
+    );
+    // A new job gets a new id; the finished one's image is in the journal.
+    assert_eq!(s.submit(spec(0), &mut out), JobId(2));
+    let (reply, rx) = tokio::sync::oneshot::channel();
+    journal.send(crate::state::Command::ReadImage { job: 1, reply });
+    assert!(!rx.await.unwrap().is_empty());
+    // Past its retention it is forgotten.
+    assert!(s.expire(crate::state::unix_now(), Duration::from_secs(3600)).is_empty());
+    assert_eq!(
+        s.expire(crate::state::unix_now() + 3600, Duration::from_secs(3600)),
+        vec![JobId(1)]
+    );
+    std::fs::remove_dir_all(dir).ok();
 }

@@ -2,14 +2,18 @@
 
 use super::ServerConfig;
 use crate::error::Error;
-use crate::scheduler::{Assignment, JobRow, JobSpec, JobUpdate, Outbox, Scheduler, WorkerRow};
+use crate::scheduler::{
+    Assignment, JobRow, JobSpec, JobUpdate, Outbox, Record, Scheduler, Snapshot, WorkerRow,
+};
+use crate::state::{unix_now, BlobStore, Command, Journal, SavedJob};
 use farm_common::film::FilmTile;
 use farm_common::ids::{JobId, TileAttempt, TileId, WorkerId};
 use farm_common::stats::RayStats;
 use farm_proto::convert::{image_chunks, ImageFacts};
 use farm_proto::v1::{self, coordinator_message, job_event, tile_result, worker_message};
+use prost::Message;
 use std::collections::HashMap;
-use std::time::Instant;
+use std::time::{Duration, Instant};
 use tokio::sync::{mpsc, oneshot};
 use tonic::Status;
 use tracing::warn;
@@ -91,6 +95,8 @@ pub enum Event {
 struct GrpcOutbox {
     workers: HashMap<WorkerId, WorkerTx>,
     watchers: HashMap<JobId, Vec<WatchTx>>,
+    /// Where changes are made durable, with a state directory.
+    journal: Option<Journal>,
 }
 
 fn rpc_stats(s: &RayStats) -> Option<v1::RayStats> {
@@ -99,7 +105,7 @@ fn rpc_stats(s: &RayStats) -> Option<v1::RayStats> {
 
 /// The protocol form of a job update: one event, or for a finished image
 /// one event per chunk of rows.
-fn job_events(update: &JobUpdate) -> Vec<v1::JobEvent> {
+pub(crate) fn job_events(update: &JobUpdate) -> Vec<v1::JobEvent> {
     let one = |kind| vec![v1::JobEvent { kind: Some(kind) }];
     match update {
         JobUpdate::Progress { done, total, workers, stats } => {
@@ -163,12 +169,73 @@ impl Outbox for GrpcOutbox {
             self.watchers.remove(&job);
         }
     }
+
+    fn record(&mut self, change: Record<'_>) {
+        if let Some(journal) = &self.journal {
+            journal.record(change);
+        }
+    }
+
+    fn durable(&self) -> bool {
+        self.journal.is_some()
+    }
+}
+
+/// Unreferenced blobs are kept this long after their last upload, so a
+/// client has time to submit the job that needs them.
+const BLOB_GRACE: Duration = Duration::from_secs(3600);
+/// How often finished jobs and unreferenced blobs are looked for.
+const PURGE_EVERY: Duration = Duration::from_secs(60);
+
+/// What the event loop needs besides its events.
+pub struct LoopState {
+    /// The journal, with a state directory.
+    pub journal: Option<Journal>,
+    /// The blob store (for purges).
+    pub blobs: BlobStore,
+    /// Jobs to resume.
+    pub jobs: Vec<SavedJob>,
+    /// The next job's id.
+    pub next_job: u64,
+}
+
+/// Streams a finished job's image from the journal to a watcher.
+fn send_stored(journal: &Journal, job: JobId, tx: WatchTx) {
+    let (reply, rx) = oneshot::channel();
+    journal.send(Command::ReadImage { job: job.0, reply });
+    tokio::spawn(async move {
+        let events = rx.await.unwrap_or_default();
+        if events.is_empty() {
+            let _ = tx.send(Err(Status::data_loss(format!("the image of job {} is lost", job.0))));
+        }
+        for bytes in events {
+            match v1::JobEvent::decode(bytes.as_slice()) {
+                Ok(ev) => {
+                    if tx.send(Ok(ev)).is_err() {
+                        return;
+                    }
+                }
+                Err(e) => {
+                    let _ = tx.send(Err(Status::data_loss(format!("job {}: {e}", job.0))));
+                    return;
+                }
+            }
+        }
+    });
 }
 
 /// Runs the scheduler until the channel closes or `Shutdown` arrives.
-pub async fn run(mut rx: mpsc::UnboundedReceiver<Event>, config: ServerConfig) {
+pub async fn run(mut rx: mpsc::UnboundedReceiver<Event>, config: ServerConfig, state: LoopState) {
     let mut sched = Scheduler::new(config.scheduler.clone());
-    let mut out = GrpcOutbox::default();
+    let mut out = GrpcOutbox { journal: state.journal, ..Default::default() };
+    sched.set_next_job(state.next_job);
+    for job in state.jobs {
+        sched.restore(job, &mut out);
+    }
+    let blobs = state.blobs;
+    let keep = config.state.keep_finished;
+    let mut last_purge: Option<Instant> = None;
+    let mut unwatched: HashMap<JobId, Instant> = HashMap::new();
     while let Some(ev) = rx.recv().await {
         let now = Instant::now();
         match ev {
@@ -197,7 +264,16 @@ pub async fn run(mut rx: mpsc::UnboundedReceiver<Event>, config: ServerConfig) {
                 let _ = reply.send(id);
             }
             Event::Watch { job, tx, reply } => match sched.snapshot(job) {
-                Some(update) => {
+                Some(Snapshot::Stored) => {
+                    match &out.journal {
+                        Some(j) => send_stored(j, job, tx),
+                        None => {
+                            let _ = tx.send(Err(Status::data_loss("the image is not kept")));
+                        }
+                    }
+                    let _ = reply.send(true);
+                }
+                Some(Snapshot::Update(update)) => {
                     let last = !matches!(update, JobUpdate::Progress { .. });
                     for ev in job_events(&update) {
                         let _ = tx.send(Ok(ev));
@@ -220,15 +296,86 @@ pub async fn run(mut rx: mpsc::UnboundedReceiver<Event>, config: ServerConfig) {
             Event::Owner { job, reply } => {
                 let _ = reply.send(sched.owner(job).cloned());
             }
-            Event::Tick => sched.tick(now, &mut out),
+            Event::Tick => {
+                sched.tick(now, &mut out);
+                cancel_unwatched(&mut sched, &mut out, &mut unwatched, now, config.client_grace);
+                if last_purge.is_none_or(|t| now.duration_since(t) >= PURGE_EVERY) {
+                    last_purge = Some(now);
+                    purge(&mut sched, &out, &blobs, keep);
+                }
+            }
             Event::Shutdown => {
                 sched.shutdown(&mut out);
+                if out.durable() {
+                    // Watchers reconnect and find their job again.
+                    let msg =
+                        "the coordinator is shutting down; its jobs resume when it starts again";
+                    for tx in out.watchers.values().flatten() {
+                        let _ = tx.send(Err(Status::unavailable(msg)));
+                    }
+                }
                 out.watchers.clear();
                 out.workers.clear();
+                if let Some(j) = &out.journal {
+                    j.flush().await;
+                }
                 break;
             }
         }
     }
+}
+
+/// Cancels each job whose client went away: not detached, and with no
+/// watcher for `grace` (counted from the coordinator's start for jobs it
+/// resumed, so their clients have time to reconnect).
+fn cancel_unwatched(
+    sched: &mut Scheduler,
+    out: &mut GrpcOutbox,
+    since: &mut HashMap<JobId, Instant>,
+    now: Instant,
+    grace: Duration,
+) {
+    let active = sched.active_jobs();
+    since.retain(|j, _| active.iter().any(|(a, _)| a == j));
+    for (job, detach) in active {
+        if detach {
+            continue;
+        }
+        let watched = out.watchers.get_mut(&job).is_some_and(|list| {
+            list.retain(|tx| !tx.is_closed());
+            !list.is_empty()
+        });
+        if watched {
+            since.remove(&job);
+            continue;
+        }
+        let from = *since.entry(job).or_insert(now);
+        if now.duration_since(from) >= grace {
+            let why = format!(
+                "cancelled: no client has watched the job for {} s (submit with --detach to keep a job running without its client)",
+                grace.as_secs()
+            );
+            sched.cancel_because(job, why, out);
+            since.remove(&job);
+        }
+    }
+}
+
+/// Forgets jobs past their retention and, with a journal, deletes their
+/// rows and the blobs no job needs any more.
+fn purge(sched: &mut Scheduler, out: &GrpcOutbox, blobs: &BlobStore, keep: Duration) {
+    let now = unix_now();
+    let jobs: Vec<u64> = sched.expire(now, keep).into_iter().map(|j| j.0).collect();
+    let Some(journal) = &out.journal else { return };
+    let (reply, rx) = oneshot::channel();
+    let before = now - BLOB_GRACE.as_secs() as i64;
+    journal.send(Command::Purge { jobs, unreferenced_before: before, reply });
+    let blobs = blobs.clone();
+    tokio::spawn(async move {
+        if let Ok(hashes) = rx.await {
+            blobs.remove(&hashes);
+        }
+    });
 }
 
 /// What a worker said, decoded and checked by its stream's own task so the

@@ -2,15 +2,14 @@
 //! the [`Scheduler`]; service handlers only translate messages into events
 //! and replies.
 
-mod blobs;
-mod events;
+pub(crate) mod events;
 mod service;
 
-pub use blobs::BlobStore;
 pub use events::{Event, FromWorker};
 
 use crate::scheduler::SchedulerConfig;
 use crate::security::{Authenticate, Security};
+use crate::state::{State, StateConfig};
 use farm_common::film::Limits;
 use farm_proto::v1::coordinator_server::CoordinatorServer;
 use farm_proto::MAX_MESSAGE_SIZE;
@@ -34,6 +33,11 @@ pub struct ServerConfig {
     pub limits: Limits,
     /// TLS and tokens, or neither (loopback only).
     pub security: Security,
+    /// The state directory, retention and blob limits.
+    pub state: StateConfig,
+    /// A job not submitted with `--detach` is cancelled when no client has
+    /// watched it for this long.
+    pub client_grace: Duration,
 }
 
 impl Default for ServerConfig {
@@ -53,19 +57,33 @@ impl ServerConfig {
             },
             limits: Limits::default(),
             security: Security::Insecure,
+            state: StateConfig::default(),
+            client_grace: Duration::from_secs(120),
         }
     }
 }
 
 /// Serves the coordinator on `listener` until `shutdown` completes; then
-/// tells clients of unfinished jobs and stops.
+/// tells clients of unfinished jobs and stops. With a state directory,
+/// jobs it held when it last stopped (or was killed) resume first.
 pub async fn serve(
     listener: TcpListener,
     config: ServerConfig,
     shutdown: impl Future<Output = ()> + Send,
 ) -> crate::error::Result<()> {
+    let state = State::open(&config.state)?;
+    let blobs = state.blobs.clone();
+    let durable = config.state.dir.is_some();
+    let loop_state = events::LoopState {
+        journal: durable.then(|| state.journal.clone()),
+        blobs: blobs.clone(),
+        jobs: state.jobs,
+        next_job: state.next_job,
+    };
+    // The lock on the state directory is held until the server stops.
+    let _lock = state.lock;
     let (events, rx) = mpsc::unbounded_channel();
-    let mut loop_task = tokio::spawn(events::run(rx, config.clone()));
+    let mut loop_task = tokio::spawn(events::run(rx, config.clone(), loop_state));
     let ticker = {
         let events = events.clone();
         let every = config.heartbeat_interval;
@@ -79,8 +97,12 @@ pub async fn serve(
             }
         })
     };
-    let svc =
-        service::CoordinatorService::new(events.clone(), config.heartbeat_interval, config.limits);
+    let svc = service::CoordinatorService::new(
+        events.clone(),
+        config.heartbeat_interval,
+        config.limits,
+        blobs,
+    );
     let (health, health_service) = tonic_health::server::health_reporter();
     health.set_service_status("", tonic_health::ServingStatus::Serving).await;
     let grpc = CoordinatorServer::new(svc)

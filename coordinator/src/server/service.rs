@@ -1,24 +1,25 @@
 //! The `renderfarm.v1.Coordinator` service: checks what arrives from the
 //! network and turns it into scheduler events.
 
-use super::blobs::BlobStore;
 use super::events::{Event, FromWorker};
 use crate::error::Error;
 use crate::scheduler::{JobSpec, Owner};
 use crate::security::{require, Action, Principal};
+use crate::state::BlobStore;
 use farm_common::film::Limits;
 use farm_common::ids::{JobId, WorkerId};
 use farm_proto::auth::Role;
-use farm_proto::convert::{blob_chunks, decode_manifest};
+use farm_proto::convert::{decode_manifest, Hash};
 use farm_proto::v1::{self, coordinator_server::Coordinator, worker_message};
-use farm_proto::{default_in_flight, PROTOCOL_VERSION};
+use farm_proto::{default_in_flight, BLOB_CHUNK_SIZE, PROTOCOL_VERSION};
 use std::collections::HashMap;
 use std::pin::Pin;
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::{Arc, Mutex};
 use std::time::Duration;
+use tokio::io::AsyncReadExt;
 use tokio::sync::{mpsc, oneshot};
-use tokio_stream::wrappers::UnboundedReceiverStream;
+use tokio_stream::wrappers::{ReceiverStream, UnboundedReceiverStream};
 use tokio_stream::{Stream, StreamExt};
 use tonic::{Request, Response, Status, Streaming};
 use tracing::{info, warn};
@@ -37,11 +38,17 @@ pub struct CoordinatorService {
 }
 
 impl CoordinatorService {
-    /// A service feeding `events`, refusing jobs over `limits`.
-    pub fn new(events: mpsc::UnboundedSender<Event>, heartbeat: Duration, limits: Limits) -> Self {
+    /// A service feeding `events`, refusing jobs over `limits`, keeping
+    /// blobs in `blobs`.
+    pub fn new(
+        events: mpsc::UnboundedSender<Event>,
+        heartbeat: Duration,
+        limits: Limits,
+        blobs: BlobStore,
+    ) -> Self {
         CoordinatorService {
             events,
-            blobs: BlobStore::default(),
+            blobs,
             registered: Arc::default(),
             next_worker: Arc::new(AtomicU64::new(1)),
             heartbeat,
@@ -218,25 +225,52 @@ impl Coordinator for CoordinatorService {
     ) -> Result<Response<Self::FetchBlobStream>, Status> {
         require(&req, Action::Work)?;
         let hash = req.into_inner().hash;
-        let data = self.blobs.get(&hash).ok_or(Error::NoBlob)?;
-        let parts = blob_chunks(&hash, &data);
-        Ok(Response::new(Box::pin(tokio_stream::iter(parts.into_iter().map(Ok)))))
+        let (mut file, total) = self.blobs.open_file(&hash).await.ok_or(Error::NoBlob)?;
+        // Read from disk a chunk at a time, no further ahead than the
+        // reader takes them: a slow reader holds two chunks, not the blob.
+        let (tx, rx) = mpsc::channel(2);
+        tokio::spawn(async move {
+            let mut offset = 0u64;
+            loop {
+                let want = (total - offset).min(BLOB_CHUNK_SIZE as u64) as usize;
+                let mut data = vec![0u8; want];
+                if let Err(e) = file.read_exact(&mut data).await {
+                    let _ = tx.send(Err(Error::Store(e.to_string()).into())).await;
+                    return;
+                }
+                let chunk = v1::BlobChunk { hash: hash.clone(), total_size: total, offset, data };
+                if tx.send(Ok(chunk)).await.is_err() {
+                    return;
+                }
+                offset += want as u64;
+                if offset >= total {
+                    return;
+                }
+            }
+        });
+        Ok(Response::new(Box::pin(ReceiverStream::new(rx))))
     }
 
     async fn upload_blob(
         &self,
         req: Request<Streaming<v1::BlobChunk>>,
     ) -> Result<Response<v1::UploadBlobResponse>, Status> {
-        require(&req, Action::Submit)?;
+        let by = require(&req, Action::Submit)?;
         let mut stream = req.into_inner();
-        let mut parts = Vec::new();
-        while let Some(c) = stream.next().await {
-            parts.push(c?);
+        // Each chunk is checked, hashed and written as it arrives: a bad
+        // upload costs one chunk of memory, whatever it claims.
+        let mut upload = self.blobs.upload(&by.id);
+        let result = async {
+            while let Some(c) = stream.next().await {
+                upload.push(&c?).await?;
+            }
+            Ok::<_, Status>(upload.finish().await?)
         }
-        let (_, size) = self.blobs.assemble(&parts).inspect_err(|e| {
-            warn!(error = %e, "upload refused");
+        .await;
+        let (_, size) = result.inspect_err(|e| {
+            warn!(error = %e.message(), token = %by.id, "upload refused");
         })?;
-        Ok(Response::new(v1::UploadBlobResponse { size: size as u64 }))
+        Ok(Response::new(v1::UploadBlobResponse { size }))
     }
 
     async fn submit_job(
@@ -246,14 +280,21 @@ impl Coordinator for CoordinatorService {
         let by = require(&req, Action::Submit)?;
         let r = req.into_inner();
         check_version(r.protocol_version)?;
-        let manifest = self.blobs.get(&r.scene_hash).ok_or(Error::NoManifest)?;
+        let manifest_hash: Hash =
+            r.scene_hash.as_slice().try_into().map_err(|_| Error::NoManifest)?;
+        let manifest = self.blobs.read(&manifest_hash).await.ok_or(Error::NoManifest)?;
         let (desc, assets) =
             decode_manifest(&manifest).map_err(|e| Error::BadManifest(e.to_string()))?;
+        drop(manifest);
         for (key, hash) in &assets {
-            if self.blobs.get(hash).is_none() {
+            if !self.blobs.contains(hash) {
                 return Err(Error::MissingAsset(key.clone()).into());
             }
         }
+        let mut blobs: Vec<Hash> = assets.iter().map(|(_, h)| *h).collect();
+        blobs.push(manifest_hash);
+        blobs.sort_unstable();
+        blobs.dedup();
         let spp_override = (r.spp > 0).then_some(r.spp);
         // Refused before anything is allocated for it.
         let (layout, _) = farm_common::film::checked_layout(&desc, spp_override, &self.limits)
@@ -272,6 +313,8 @@ impl Coordinator for CoordinatorService {
             spp,
             geometry,
             owner: Owner { id: by.id, name: by.name },
+            detach: r.detach,
+            blobs,
         };
         let (reply, rx) = oneshot::channel();
         self.send(Event::Submit { spec, reply })?;

@@ -22,53 +22,90 @@ pub fn blob_chunks(hash: &[u8], data: &[u8]) -> Vec<BlobChunk> {
         .collect()
 }
 
-/// Reassembles chunks that must arrive in order. Checking the bytes against
-/// the hash is the caller's job.
+/// The checks every chunk of one upload must pass, whatever is done with
+/// its bytes: the same hash and total size as the first chunk, offsets in
+/// order with no gap, no more bytes than declared, and a declared size
+/// under the limit (known from the first chunk, before any byte is kept).
 #[derive(Debug)]
-pub struct BlobAssembler {
+pub struct ChunkSequence {
     max_size: u64,
     first: Option<(Vec<u8>, u64)>,
-    data: Vec<u8>,
+    received: u64,
 }
 
-impl BlobAssembler {
-    /// An assembler refusing blobs over `max_size` bytes.
+impl ChunkSequence {
+    /// A sequence refusing blobs over `max_size` bytes.
     pub fn new(max_size: u64) -> Self {
-        BlobAssembler { max_size, first: None, data: Vec::new() }
+        ChunkSequence { max_size, first: None, received: 0 }
     }
 
-    /// Adds the next chunk.
-    pub fn push(&mut self, c: &BlobChunk) -> Result<(), Error> {
+    /// Checks the next chunk; on success its bytes are counted as received.
+    pub fn check(&mut self, c: &BlobChunk) -> Result<(), Error> {
         match &self.first {
             None => {
                 if c.total_size > self.max_size {
                     return Err(Error::TooLarge(c.total_size, self.max_size));
                 }
-                self.data.reserve(c.total_size.min(1 << 28) as usize);
                 self.first = Some((c.hash.clone(), c.total_size));
             }
             Some((hash, _)) if *hash != c.hash => return Err(Error::OtherBlob),
             Some((_, total)) if *total != c.total_size => return Err(Error::SizeChanged),
             Some(_) => {}
         }
-        let want = self.data.len() as u64;
-        if c.offset != want {
-            return Err(Error::OutOfOrder { got: c.offset, want });
+        if c.offset != self.received {
+            return Err(Error::OutOfOrder { got: c.offset, want: self.received });
         }
-        self.data.extend_from_slice(&c.data);
-        if self.data.len() as u64 > c.total_size {
+        let received = self.received + c.data.len() as u64;
+        if received > c.total_size {
             return Err(Error::TooMany);
         }
+        self.received = received;
+        Ok(())
+    }
+
+    /// The declared hash and size, once the first chunk is in.
+    pub fn declared(&self) -> Option<(&[u8], u64)> {
+        self.first.as_ref().map(|(h, t)| (h.as_slice(), *t))
+    }
+
+    /// The hash every chunk named and the size, if every byte arrived.
+    pub fn finish(self) -> Result<(Vec<u8>, u64), Error> {
+        let (hash, total) = self.first.ok_or(Error::Empty)?;
+        if self.received != total {
+            return Err(Error::Incomplete { got: self.received, want: total });
+        }
+        Ok((hash, total))
+    }
+}
+
+/// Reassembles chunks that must arrive in order. Checking the bytes against
+/// the hash is the caller's job.
+#[derive(Debug)]
+pub struct BlobAssembler {
+    seq: ChunkSequence,
+    data: Vec<u8>,
+}
+
+impl BlobAssembler {
+    /// An assembler refusing blobs over `max_size` bytes.
+    pub fn new(max_size: u64) -> Self {
+        BlobAssembler { seq: ChunkSequence::new(max_size), data: Vec::new() }
+    }
+
+    /// Adds the next chunk.
+    pub fn push(&mut self, c: &BlobChunk) -> Result<(), Error> {
+        let first = self.seq.declared().is_none();
+        self.seq.check(c)?;
+        if first {
+            self.data.reserve(c.total_size.min(1 << 28) as usize);
+        }
+        self.data.extend_from_slice(&c.data);
         Ok(())
     }
 
     /// The hash every chunk named and the whole blob.
     pub fn finish(self) -> Result<(Vec<u8>, Vec<u8>), Error> {
-        let (hash, total) = self.first.ok_or(Error::Empty)?;
-        let got = self.data.len() as u64;
-        if got != total {
-            return Err(Error::Incomplete { got, want: total });
-        }
+        let (hash, _) = self.seq.finish()?;
         Ok((hash, self.data))
     }
 }

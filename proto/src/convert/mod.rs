@@ -7,6 +7,6 @@ mod scene;
 mod stats;
 mod tile;
 
-pub use blob::{blob_chunks, BlobAssembler};
+pub use blob::{blob_chunks, BlobAssembler, ChunkSequence};
 pub use image::{image_chunks, AssembledImage, ImageAssembler, ImageFacts, IMAGE_CHUNK_BYTES};
 pub use scene::{decode_manifest, decode_scene, encode_scene, Blob, Hash};

@@ -1,0 +1,72 @@
+//! `farm watch`: attach to a job on a coordinator, from anywhere, and
+//! write its image when it is done (at once, if it is done already).
+
+use super::RemoteArgs;
+use crate::embedded::{self, RenderSummary};
+use farm_render::features::Features;
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+/// Arguments of `farm watch`.
+#[derive(Debug, clap::Args)]
+pub struct WatchArgs {
+    /// The job id (printed by `farm submit`, listed by `farm status`).
+    pub job: u64,
+    /// Output image (.exr, .pfm or .png); default job-<ID>.exr.
+    #[arg(short, long)]
+    pub output: Option<PathBuf>,
+    /// Print nothing but errors.
+    #[arg(short, long)]
+    pub quiet: bool,
+    /// Seconds to keep reconnecting to a coordinator that went away.
+    #[arg(long, value_name = "SECONDS", default_value_t = 600.0)]
+    pub reconnect_for: f64,
+    /// The coordinator.
+    #[command(flatten)]
+    pub remote: RemoteArgs,
+}
+
+/// Follows the job to its image and writes it.
+pub async fn run(args: WatchArgs) -> ExitCode {
+    let remote = match args.remote.remote() {
+        Ok(r) => r,
+        Err(e) => return super::submit::fail(&e),
+    };
+    let bar = crate::progress::progress_bar(args.quiet);
+    let job = args.job;
+    let reconnect = super::submit::reconnect_for(args.reconnect_for);
+    let result = crate::client::follow(&remote, job, None, reconnect, |p| {
+        super::submit::show_progress(&bar, job, p)
+    })
+    .await;
+    bar.finish_and_clear();
+    let done = match result {
+        Ok(d) => d,
+        Err(e) => return super::submit::fail(&e),
+    };
+    let summary = RenderSummary {
+        image: done.image,
+        error: done.error,
+        output: args.output.clone().unwrap_or_else(|| PathBuf::from(format!("job-{job}.exr"))),
+        stats: done.stats,
+        spp: done.spp,
+        startup_seconds: 0.0,
+        render_seconds: done.render_seconds,
+        features: Features::default(),
+        scene_name: format!("job {job}"),
+        warnings: Vec::new(),
+    };
+    if let Err(e) = embedded::write(&summary) {
+        return super::submit::fail(&e);
+    }
+    if !args.quiet {
+        say!(
+            "{}: {}×{}, {} spp, job {job}",
+            summary.output.display(),
+            summary.image.width,
+            summary.image.height,
+            summary.spp
+        );
+    }
+    ExitCode::SUCCESS
+}

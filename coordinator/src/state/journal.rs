@@ -1,0 +1,466 @@
+//! The journal: every change to a job, committed to SQLite as it happens by
+//! one writer thread, and read back when the coordinator starts again.
+//!
+//! The event loop never waits for the disk: it sends [`Command`]s down a
+//! channel, and the writer commits whatever has queued up in one
+//! transaction (WAL, `synchronous = NORMAL`: a commit survives the process
+//! being killed; only the OS losing power can lose the last few). Reads
+//! that must see earlier writes (a finished job's image) go down the same
+//! channel, so they are answered in order.
+
+use super::StateError;
+use crate::scheduler::{JobSpec, JobState, JobUpdate, Record};
+use crate::server::events::job_events;
+use farm_common::film::FilmTile;
+use farm_common::stats::RayStats;
+use farm_proto::convert::Hash;
+use prost::Message;
+use rusqlite::{params, Connection, OptionalExtension};
+use std::path::Path;
+use std::sync::mpsc;
+use std::time::{SystemTime, UNIX_EPOCH};
+use tokio::sync::oneshot;
+use tracing::{debug, error};
+
+const SCHEMA: &str = "
+CREATE TABLE IF NOT EXISTS meta (key TEXT PRIMARY KEY, value INTEGER NOT NULL);
+CREATE TABLE IF NOT EXISTS jobs (
+    id INTEGER PRIMARY KEY,
+    spec BLOB NOT NULL,
+    state TEXT NOT NULL,
+    reason TEXT,
+    detach INTEGER NOT NULL,
+    submitted_at INTEGER NOT NULL,
+    ended_at INTEGER
+);
+CREATE TABLE IF NOT EXISTS tiles (
+    job INTEGER NOT NULL, tile INTEGER NOT NULL, data BLOB NOT NULL,
+    PRIMARY KEY (job, tile)
+) WITHOUT ROWID;
+CREATE TABLE IF NOT EXISTS attempts (
+    job INTEGER NOT NULL, tile INTEGER NOT NULL, n INTEGER NOT NULL,
+    PRIMARY KEY (job, tile)
+) WITHOUT ROWID;
+CREATE TABLE IF NOT EXISTS images (
+    job INTEGER NOT NULL, seq INTEGER NOT NULL, event BLOB NOT NULL,
+    PRIMARY KEY (job, seq)
+);
+CREATE TABLE IF NOT EXISTS job_blobs (
+    job INTEGER NOT NULL, hash BLOB NOT NULL,
+    PRIMARY KEY (job, hash)
+) WITHOUT ROWID;
+CREATE INDEX IF NOT EXISTS job_blobs_hash ON job_blobs (hash);
+CREATE TABLE IF NOT EXISTS blobs (
+    hash BLOB PRIMARY KEY, size INTEGER NOT NULL, owner TEXT NOT NULL, stored_at INTEGER NOT NULL
+) WITHOUT ROWID;
+";
+
+/// Seconds since the Unix epoch.
+pub fn unix_now() -> i64 {
+    SystemTime::now().duration_since(UNIX_EPOCH).map(|d| d.as_secs() as i64).unwrap_or(0)
+}
+
+/// How a job ended, as stored.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub enum Ending {
+    /// Its image is in the journal.
+    Done,
+    /// It failed, with the reason.
+    Failed(String),
+    /// A client cancelled it.
+    Cancelled,
+}
+
+/// One change for the writer.
+pub enum Command {
+    /// A job was accepted.
+    Submitted {
+        /// Its id.
+        id: u64,
+        /// Its spec.
+        spec: Box<JobSpec>,
+        /// Whether it runs on with no client attached.
+        detach: bool,
+        /// The blobs it needs (manifest and assets).
+        blobs: Vec<Hash>,
+    },
+    /// A tile was handed out for the `n`th time.
+    HandedOut {
+        /// The job.
+        job: u64,
+        /// The tile.
+        tile: u32,
+        /// Hand-outs so far.
+        n: u32,
+    },
+    /// A tile's result was accepted.
+    Merged {
+        /// The job.
+        job: u64,
+        /// The tile.
+        tile: u32,
+        /// The result (postcard of the tile and its ray counts).
+        data: Vec<u8>,
+    },
+    /// A job ended; for a finished one, the image as encoded `JobEvent`s.
+    /// Its tiles are no longer needed.
+    Ended {
+        /// The job.
+        job: u64,
+        /// How.
+        ending: Ending,
+        /// The image events of a finished job.
+        image: Vec<Vec<u8>>,
+    },
+    /// Jobs purged after their retention period.
+    Purge {
+        /// The jobs.
+        jobs: Vec<u64>,
+        /// Blobs stored before this time that no job needs any more are
+        /// reported on `reply` (and forgotten here).
+        unreferenced_before: i64,
+        /// Where to send them.
+        reply: oneshot::Sender<Vec<Hash>>,
+    },
+    /// A blob was stored (or stored again).
+    BlobStored {
+        /// Its hash.
+        hash: Hash,
+        /// Its size.
+        size: u64,
+        /// The token that first stored it.
+        owner: String,
+    },
+    /// The image events of a finished job.
+    ReadImage {
+        /// The job.
+        job: u64,
+        /// Where to send them.
+        reply: oneshot::Sender<Vec<Vec<u8>>>,
+    },
+    /// Answered once everything sent before it is committed.
+    Flush(oneshot::Sender<()>),
+}
+
+/// A job read back from the journal.
+#[derive(Debug)]
+pub struct SavedJob {
+    /// Its id.
+    pub id: u64,
+    /// Its spec.
+    pub spec: JobSpec,
+    /// `None` while active.
+    pub ending: Option<Ending>,
+    /// When it ended (seconds since the epoch).
+    pub ended_at: Option<i64>,
+    /// Whether it runs on with no client attached.
+    pub detach: bool,
+    /// Accepted tiles of an active job, in tile order.
+    pub tiles: Vec<(u32, FilmTile, RayStats)>,
+    /// Hand-outs per tile.
+    pub attempts: Vec<(u32, u32)>,
+}
+
+/// A stored blob's record.
+#[derive(Clone, Debug)]
+pub struct SavedBlob {
+    /// Its hash.
+    pub hash: Hash,
+    /// Its size.
+    pub size: u64,
+    /// The token that first stored it.
+    pub owner: String,
+}
+
+/// What the journal held at start.
+#[derive(Debug, Default)]
+pub struct Restored {
+    /// The id the next job gets.
+    pub next_job: u64,
+    /// Every job not yet purged.
+    pub jobs: Vec<SavedJob>,
+    /// Every stored blob.
+    pub blobs: Vec<SavedBlob>,
+}
+
+/// The sending end of the journal; cheap to clone.
+#[derive(Clone)]
+pub struct Journal {
+    tx: mpsc::Sender<Command>,
+}
+
+impl std::fmt::Debug for Journal {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str("Journal")
+    }
+}
+
+/// Encodes a tile result for [`Command::Merged`].
+pub fn encode_tile(tile: &FilmTile, stats: &RayStats) -> Vec<u8> {
+    postcard::to_stdvec(&(tile, stats)).unwrap_or_default()
+}
+
+impl Journal {
+    /// Opens (or creates) the journal in `db` (in memory if `None`), reads
+    /// back what it holds and starts the writer thread.
+    pub fn open(db: Option<&Path>) -> Result<(Journal, Restored), StateError> {
+        let conn = match db {
+            Some(p) => Connection::open(p),
+            None => Connection::open_in_memory(),
+        }
+        .map_err(StateError::db)?;
+        conn.busy_timeout(std::time::Duration::from_secs(10)).map_err(StateError::db)?;
+        conn.pragma_update(None, "journal_mode", "WAL").map_err(StateError::db)?;
+        conn.pragma_update(None, "synchronous", "NORMAL").map_err(StateError::db)?;
+        conn.execute_batch(SCHEMA).map_err(StateError::db)?;
+        let restored = restore(&conn).map_err(StateError::db)?;
+        let (tx, rx) = mpsc::channel();
+        std::thread::Builder::new()
+            .name("farm-journal".into())
+            .spawn(move || writer(conn, rx))
+            .map_err(|e| StateError::Io("cannot start the journal's thread".into(), e))?;
+        Ok((Journal { tx }, restored))
+    }
+
+    /// Queues a change (dropped, with the coordinator, if the writer died).
+    pub fn send(&self, c: Command) {
+        if self.tx.send(c).is_err() {
+            error!("the journal's writer has stopped: this change is not durable");
+        }
+    }
+
+    /// Queues a change the scheduler asks to be made durable.
+    pub fn record(&self, change: Record<'_>) {
+        self.send(match change {
+            Record::Submitted { job, spec } => Command::Submitted {
+                id: job.0,
+                detach: spec.detach,
+                blobs: spec.blobs.clone(),
+                spec: Box::new(spec.clone()),
+            },
+            Record::HandedOut { job, tile, n } => {
+                Command::HandedOut { job: job.0, tile: tile.0, n }
+            }
+            Record::Merged { job, tile, film_tile, stats } => {
+                Command::Merged { job: job.0, tile: tile.0, data: encode_tile(film_tile, stats) }
+            }
+            Record::Ended { job, state, image } => {
+                let ending = match state {
+                    JobState::Failed(m) => Ending::Failed(m.clone()),
+                    JobState::Cancelled => Ending::Cancelled,
+                    _ => Ending::Done,
+                };
+                // Stored as the very events a watcher is sent.
+                let image = image
+                    .map(|f| {
+                        let update = JobUpdate::Finished(std::sync::Arc::new(f.clone()));
+                        job_events(&update).iter().map(|e| e.encode_to_vec()).collect()
+                    })
+                    .unwrap_or_default();
+                Command::Ended { job: job.0, ending, image }
+            }
+        });
+    }
+
+    /// Waits until everything queued so far is committed.
+    pub async fn flush(&self) {
+        let (reply, rx) = oneshot::channel();
+        self.send(Command::Flush(reply));
+        let _ = rx.await;
+    }
+}
+
+fn writer(mut conn: Connection, rx: mpsc::Receiver<Command>) {
+    while let Ok(first) = rx.recv() {
+        let mut batch = vec![first];
+        while batch.len() < 1024 {
+            match rx.try_recv() {
+                Ok(c) => batch.push(c),
+                Err(_) => break,
+            }
+        }
+        let n = batch.len();
+        let mut replies = Vec::new();
+        let result = (|| -> rusqlite::Result<()> {
+            let tx = conn.transaction()?;
+            for c in batch {
+                apply(&tx, c, &mut replies)?;
+            }
+            tx.commit()
+        })();
+        if let Err(e) = result {
+            error!(error = %e, changes = n, "the journal could not commit: these changes are not durable");
+        }
+        // Answers go out after the commit, so a flush means "on disk".
+        for r in replies {
+            r();
+        }
+    }
+    debug!("journal writer stopped");
+}
+
+type Reply = Box<dyn FnOnce() + Send>;
+
+fn apply(
+    tx: &rusqlite::Transaction<'_>,
+    c: Command,
+    replies: &mut Vec<Reply>,
+) -> rusqlite::Result<()> {
+    match c {
+        Command::Submitted { id, spec, detach, blobs } => {
+            let bytes = postcard::to_stdvec(&*spec).unwrap_or_default();
+            tx.execute(
+                "INSERT OR REPLACE INTO jobs (id, spec, state, detach, submitted_at) VALUES (?1, ?2, 'active', ?3, ?4)",
+                params![id as i64, bytes, detach, unix_now()],
+            )?;
+            tx.execute(
+                "INSERT INTO meta (key, value) VALUES ('next_job', ?1)
+                 ON CONFLICT (key) DO UPDATE SET value = max(value, excluded.value)",
+                params![id as i64 + 1],
+            )?;
+            let mut st =
+                tx.prepare_cached("INSERT OR IGNORE INTO job_blobs (job, hash) VALUES (?1, ?2)")?;
+            for h in blobs {
+                st.execute(params![id as i64, h.as_slice()])?;
+            }
+        }
+        Command::HandedOut { job, tile, n } => {
+            tx.prepare_cached(
+                "INSERT OR REPLACE INTO attempts (job, tile, n) VALUES (?1, ?2, ?3)",
+            )?
+            .execute(params![job as i64, tile, n])?;
+        }
+        Command::Merged { job, tile, data } => {
+            tx.prepare_cached(
+                "INSERT OR REPLACE INTO tiles (job, tile, data) VALUES (?1, ?2, ?3)",
+            )?
+            .execute(params![job as i64, tile, data])?;
+        }
+        Command::Ended { job, ending, image } => {
+            let (state, reason) = match ending {
+                Ending::Done => ("done", None),
+                Ending::Failed(r) => ("failed", Some(r)),
+                Ending::Cancelled => ("cancelled", None),
+            };
+            tx.execute(
+                "UPDATE jobs SET state = ?2, reason = ?3, ended_at = ?4 WHERE id = ?1",
+                params![job as i64, state, reason, unix_now()],
+            )?;
+            tx.execute("DELETE FROM tiles WHERE job = ?1", params![job as i64])?;
+            let mut st = tx.prepare_cached(
+                "INSERT OR REPLACE INTO images (job, seq, event) VALUES (?1, ?2, ?3)",
+            )?;
+            for (seq, ev) in image.iter().enumerate() {
+                st.execute(params![job as i64, seq as i64, ev])?;
+            }
+        }
+        Command::Purge { jobs, unreferenced_before, reply } => {
+            for job in jobs {
+                let job = job as i64;
+                for table in ["tiles", "attempts", "images", "job_blobs"] {
+                    tx.execute(&format!("DELETE FROM {table} WHERE job = ?1"), params![job])?;
+                }
+                tx.execute("DELETE FROM jobs WHERE id = ?1", params![job])?;
+            }
+            let mut st = tx.prepare(
+                "SELECT hash FROM blobs WHERE stored_at < ?1
+                 AND NOT EXISTS (SELECT 1 FROM job_blobs WHERE job_blobs.hash = blobs.hash)",
+            )?;
+            let hashes: Vec<Hash> = st
+                .query_map(params![unreferenced_before], |r| r.get::<_, Vec<u8>>(0))?
+                .filter_map(|h| h.ok().and_then(|h| h.try_into().ok()))
+                .collect();
+            for h in &hashes {
+                tx.execute("DELETE FROM blobs WHERE hash = ?1", params![h.as_slice()])?;
+            }
+            replies.push(Box::new(move || {
+                let _ = reply.send(hashes);
+            }));
+        }
+        Command::BlobStored { hash, size, owner } => {
+            tx.prepare_cached(
+                "INSERT INTO blobs (hash, size, owner, stored_at) VALUES (?1, ?2, ?3, ?4)
+                 ON CONFLICT (hash) DO UPDATE SET stored_at = excluded.stored_at",
+            )?
+            .execute(params![hash.as_slice(), size as i64, owner, unix_now()])?;
+        }
+        Command::ReadImage { job, reply } => {
+            let mut st =
+                tx.prepare_cached("SELECT event FROM images WHERE job = ?1 ORDER BY seq")?;
+            let events: Vec<Vec<u8>> =
+                st.query_map(params![job as i64], |r| r.get(0))?.filter_map(Result::ok).collect();
+            let _ = reply.send(events);
+        }
+        Command::Flush(reply) => replies.push(Box::new(move || {
+            let _ = reply.send(());
+        })),
+    }
+    Ok(())
+}
+
+fn restore(conn: &Connection) -> rusqlite::Result<Restored> {
+    let next_job: i64 = conn
+        .query_row("SELECT value FROM meta WHERE key = 'next_job'", [], |r| r.get(0))
+        .optional()?
+        .unwrap_or(1);
+    let mut jobs = Vec::new();
+    let mut st =
+        conn.prepare("SELECT id, spec, state, reason, detach, ended_at FROM jobs ORDER BY id")?;
+    let rows = st.query_map([], |r| {
+        Ok((
+            r.get::<_, i64>(0)?,
+            r.get::<_, Vec<u8>>(1)?,
+            r.get::<_, String>(2)?,
+            r.get::<_, Option<String>>(3)?,
+            r.get::<_, bool>(4)?,
+            r.get::<_, Option<i64>>(5)?,
+        ))
+    })?;
+    for row in rows {
+        let (id, spec, state, reason, detach, ended_at) = row?;
+        let Ok(spec) = postcard::from_bytes::<JobSpec>(&spec) else {
+            error!(job = id, "a job in the journal does not decode: skipped");
+            continue;
+        };
+        let ending = match state.as_str() {
+            "done" => Some(Ending::Done),
+            "failed" => Some(Ending::Failed(reason.unwrap_or_default())),
+            "cancelled" => Some(Ending::Cancelled),
+            _ => None,
+        };
+        let mut tiles = Vec::new();
+        if ending.is_none() {
+            let mut t =
+                conn.prepare_cached("SELECT tile, data FROM tiles WHERE job = ?1 ORDER BY tile")?;
+            for r in
+                t.query_map(params![id], |r| Ok((r.get::<_, u32>(0)?, r.get::<_, Vec<u8>>(1)?)))?
+            {
+                let (tile, data) = r?;
+                match postcard::from_bytes::<(FilmTile, RayStats)>(&data) {
+                    Ok((ft, stats)) => tiles.push((tile, ft, stats)),
+                    Err(_) => error!(
+                        job = id,
+                        tile, "a tile in the journal does not decode: it renders again"
+                    ),
+                }
+            }
+        }
+        let mut a = conn.prepare_cached("SELECT tile, n FROM attempts WHERE job = ?1")?;
+        let attempts = a
+            .query_map(params![id], |r| Ok((r.get::<_, u32>(0)?, r.get::<_, u32>(1)?)))?
+            .collect::<rusqlite::Result<Vec<_>>>()?;
+        jobs.push(SavedJob { id: id as u64, spec, ending, ended_at, detach, tiles, attempts });
+    }
+    let mut b = conn.prepare("SELECT hash, size, owner FROM blobs")?;
+    let blobs = b
+        .query_map([], |r| {
+            Ok((r.get::<_, Vec<u8>>(0)?, r.get::<_, i64>(1)?, r.get::<_, String>(2)?))
+        })?
+        .filter_map(Result::ok)
+        .filter_map(|(h, size, owner)| {
+            Some(SavedBlob { hash: h.try_into().ok()?, size: size as u64, owner })
+        })
+        .collect();
+    let next_job = jobs.iter().map(|j| j.id + 1).max().unwrap_or(1).max(next_job as u64);
+    Ok(Restored { next_job, jobs, blobs })
+}
