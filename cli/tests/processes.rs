@@ -4,67 +4,14 @@
 //! must equal the embedded render byte for byte. Then what the security
 //! model refuses, as a user meets it on the command line.
 
-use std::io::{BufRead, BufReader};
-use std::path::{Path, PathBuf};
-use std::process::{Child, Command, Stdio};
+mod common;
+
+use common::{
+    farm, free_port, memory, scene, start_coordinator, start_coordinator_on,
+    start_coordinator_with, status, token_file, Procs,
+};
+use std::process::Stdio;
 use std::time::{Duration, Instant};
-
-/// Kills its processes when dropped, so a failing test leaves none behind.
-struct Procs(Vec<Child>);
-
-impl Drop for Procs {
-    fn drop(&mut self) {
-        for c in &mut self.0 {
-            let _ = c.kill();
-            let _ = c.wait();
-        }
-    }
-}
-
-fn farm() -> Command {
-    Command::new(env!("CARGO_BIN_EXE_farm"))
-}
-
-fn scene() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("../scenes/example.pbrt")
-}
-
-/// Starts `farm coordinator` on a free loopback port with its state in
-/// `state`, logging at debug level to `state/../coordinator.log`; returns
-/// its https:// URL.
-fn start_coordinator(procs: &mut Procs, state: &Path) -> String {
-    start_coordinator_on(procs, state, "127.0.0.1:0", "coordinator.log")
-}
-
-/// [`start_coordinator`] on `listen`, logging to `log` beside `state`.
-fn start_coordinator_on(procs: &mut Procs, state: &Path, listen: &str, log: &str) -> String {
-    let mut coord = farm()
-        .args(["coordinator", "--listen", listen, "--heartbeat", "0.2", "--state-dir"])
-        .arg(state)
-        .env("FARM_LOG", "debug")
-        .stderr(Stdio::piped())
-        .spawn()
-        .expect("start coordinator");
-    let stderr = coord.stderr.take().expect("stderr");
-    procs.0.push(coord);
-    let mut reader = BufReader::new(stderr);
-    let log = state.parent().expect("parent").join(log);
-    let mut log = std::fs::File::create(log).expect("log file");
-    let mut line = String::new();
-    while !line.contains("coordinator listening on") {
-        line.clear();
-        assert!(reader.read_line(&mut line).expect("read coordinator log") > 0, "no banner");
-        std::io::Write::write_all(&mut log, line.as_bytes()).expect("log");
-    }
-    // Keep draining the coordinator's log so its writes never hit a closed pipe.
-    std::thread::spawn(move || std::io::copy(&mut reader, &mut log));
-    let start = line.find("https://").unwrap_or_else(|| panic!("no https URL in {line:?}"));
-    line[start..].split_whitespace().next().expect("url").to_string()
-}
-
-fn token_file(state: &Path, role: &str) -> PathBuf {
-    state.join(format!("{role}.token"))
-}
 
 #[test]
 fn sigkill_of_a_worker_process_changes_no_byte() {
@@ -131,19 +78,6 @@ fn sigkill_of_a_worker_process_changes_no_byte() {
     let a = std::fs::read(&farm_out).expect("farm image");
     let b = std::fs::read(&embedded_out).expect("embedded image");
     assert!(a == b, "the farm's image differs from the embedded render");
-}
-
-/// A loopback port free now (bound and released), to restart a
-/// coordinator on the same address.
-fn free_port() -> u16 {
-    std::net::TcpListener::bind("127.0.0.1:0").expect("bind").local_addr().expect("addr").port()
-}
-
-fn status(
-    rt: &tokio::runtime::Runtime,
-    remote: &farm_cli::client::Remote,
-) -> Option<farm_proto::v1::GetStatusResponse> {
-    rt.block_on(farm_cli::client::status(remote)).ok()
 }
 
 #[test]
@@ -247,6 +181,101 @@ fn sigkill_of_the_coordinator_loses_only_the_tiles_in_flight() {
     ]);
     assert_eq!(code, Some(0), "{err}");
     assert!(std::fs::read(&watched).expect("watched image") == a, "farm watch wrote another image");
+    drop(procs);
+    std::fs::remove_dir_all(dir).ok();
+}
+
+const MIB: u64 = 1 << 20;
+
+/// Chunk `i` of a made-up blob of `n` MiB.
+fn made_up_chunk(hash: &[u8], n: u64, i: u64) -> farm_proto::v1::BlobChunk {
+    farm_proto::v1::BlobChunk {
+        hash: hash.to_vec(),
+        total_size: n * MIB,
+        offset: i * MIB,
+        data: vec![(i * 31 % 251) as u8; MIB as usize],
+    }
+}
+
+#[test]
+fn upload_and_download_abuse_costs_the_coordinator_a_few_chunks() {
+    use tonic::Code;
+    let dir = std::env::temp_dir().join(format!("farm-procs-abuse-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).expect("temp dir");
+    let state = dir.join("state");
+    let mut procs = Procs(Vec::new());
+    let extra = ["--client-quota", "600M"];
+    let url = start_coordinator_with(&mut procs, &state, "127.0.0.1:0", "coordinator.log", &extra);
+    let pid = procs.0[0].id();
+    let rt = tokio::runtime::Builder::new_multi_thread().enable_all().build().expect("runtime");
+    let token = |role| {
+        let t = std::fs::read_to_string(token_file(&state, role)).expect("token");
+        t.trim().parse::<farm_proto::auth::Token>().expect("token")
+    };
+    let (client_token, worker_token) = (token("client"), token("worker"));
+    let connect = |t| rt.block_on(farm_proto::connect::connect(&url, Some(t))).expect("connect");
+    let mut client = connect(&client_token);
+    const N: u64 = 256;
+    let (before, _) = memory(pid);
+
+    // 256 MiB whose bytes do not match the hash they claim: refused at the
+    // end, having cost a chunk or so, not the blob.
+    let lie = [7u8; 32];
+    let chunks = tokio_stream::iter((0..N).map(move |i| made_up_chunk(&lie, N, i)));
+    let e = rt.block_on(client.upload_blob(chunks)).expect_err("a lying upload");
+    assert_eq!(e.code(), Code::InvalidArgument, "{e}");
+    assert!(e.message().contains("does not match its hash"), "{e}");
+    let (after_lie, _) = memory(pid);
+
+    // Over the client's quota: refused at the first chunk, saying which limit.
+    let chunks = tokio_stream::iter((0..1024).map(move |i| made_up_chunk(&lie, 1024, i)));
+    let e = rt.block_on(client.upload_blob(chunks)).expect_err("over quota");
+    assert_eq!(e.code(), Code::ResourceExhausted, "{e}");
+    assert!(e.message().contains("--client-quota"), "{e}");
+
+    // A real 256 MiB blob, then ten readers that take one chunk and stall.
+    let mut hasher = blake3::Hasher::new();
+    for i in 0..N {
+        hasher.update(&made_up_chunk(&[], N, i).data);
+    }
+    let hash = *hasher.finalize().as_bytes();
+    let chunks = tokio_stream::iter((0..N).map(move |i| made_up_chunk(&hash, N, i)));
+    let size = rt.block_on(client.upload_blob(chunks)).expect("a true upload").into_inner().size;
+    assert_eq!(size, N * MIB);
+    let (after_upload, _) = memory(pid);
+    let mut readers = Vec::new();
+    for _ in 0..10 {
+        let mut w = connect(&worker_token);
+        let request = farm_proto::v1::FetchBlobRequest { hash: hash.to_vec() };
+        let mut stream = rt.block_on(w.fetch_blob(request)).expect("fetch").into_inner();
+        let first = rt.block_on(stream.message()).expect("chunk").expect("a chunk");
+        assert_eq!(first.offset, 0);
+        readers.push((w, stream, first));
+    }
+    std::thread::sleep(Duration::from_secs(1));
+    let (after_readers, _) = memory(pid);
+    // One reader reads on to the end and gets the blob intact.
+    let (_, mut stream, first) = readers.pop().expect("reader");
+    let mut hasher = blake3::Hasher::new();
+    hasher.update(&first.data);
+    let mut got = first.data.len() as u64;
+    while let Some(c) = rt.block_on(stream.message()).expect("chunk") {
+        hasher.update(&c.data);
+        got += c.data.len() as u64;
+    }
+    assert_eq!((got, *hasher.finalize().as_bytes()), (N * MIB, hash));
+    let grown = |m: u64| m.saturating_sub(before) / MIB;
+    eprintln!(
+        "coordinator peak RSS {} MiB at start; +{} MiB after a 256 MiB lying upload, +{} MiB after a 256 MiB upload, +{} MiB with 10 stalled readers of it",
+        before / MIB,
+        grown(after_lie),
+        grown(after_upload),
+        grown(after_readers)
+    );
+    assert!(grown(after_lie) < 48, "a lying upload cost {} MiB", grown(after_lie));
+    assert!(grown(after_upload) < 48, "an upload cost {} MiB", grown(after_upload));
+    assert!(grown(after_readers) < 40, "ten stalled readers cost {} MiB", grown(after_readers));
+    drop(readers);
     drop(procs);
     std::fs::remove_dir_all(dir).ok();
 }

@@ -24,6 +24,10 @@ use tokio_stream::{Stream, StreamExt};
 use tonic::{Request, Response, Status, Streaming};
 use tracing::{info, warn};
 
+/// Bytes per `FetchBlob` chunk: smaller than uploads' chunks, since what a
+/// stalled reader pins in memory is a few of them.
+const DOWNLOAD_CHUNK: usize = BLOB_CHUNK_SIZE / 4;
+
 type BoxStream<T> = Pin<Box<dyn Stream<Item = Result<T, Status>> + Send>>;
 
 /// The service; cheap to clone.
@@ -227,12 +231,13 @@ impl Coordinator for CoordinatorService {
         let hash = req.into_inner().hash;
         let (mut file, total) = self.blobs.open_file(&hash).await.ok_or(Error::NoBlob)?;
         // Read from disk a chunk at a time, no further ahead than the
-        // reader takes them: a slow reader holds two chunks, not the blob.
-        let (tx, rx) = mpsc::channel(2);
+        // reader takes them: a stalled reader holds a few small chunks
+        // (one queued, one in HTTP/2's send buffer), not the blob.
+        let (tx, rx) = mpsc::channel(1);
         tokio::spawn(async move {
             let mut offset = 0u64;
             loop {
-                let want = (total - offset).min(BLOB_CHUNK_SIZE as u64) as usize;
+                let want = (total - offset).min(DOWNLOAD_CHUNK as u64) as usize;
                 let mut data = vec![0u8; want];
                 if let Err(e) = file.read_exact(&mut data).await {
                     let _ = tx.send(Err(Error::Store(e.to_string()).into())).await;
