@@ -76,6 +76,9 @@ pub enum Error {
     /// An upload over a client's quota or the store's limit.
     #[error("upload refused: {0}")]
     QuotaExceeded(String),
+    /// A client with too many WatchJob streams open.
+    #[error("this client already has {0} job watches open: close one first")]
+    TooManyWatches(u32),
     /// The blob store's disk failed.
     #[error("the blob store failed: {0}")]
     Store(String),
@@ -116,7 +119,9 @@ impl From<Error> for Status {
             | Error::UnknownTile(..)
             | Error::WrongDimensions(_)
             | Error::BadPixels(..) => Status::invalid_argument(message),
-            Error::QuotaExceeded(_) => Status::resource_exhausted(message),
+            Error::QuotaExceeded(_) | Error::TooManyWatches(_) => {
+                Status::resource_exhausted(message)
+            }
             Error::Transport(_)
             | Error::Scheduler(_)
             | Error::Random(_)

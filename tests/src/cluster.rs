@@ -46,6 +46,11 @@ impl TestCluster {
         Self::start_with(workers, config, Some(dir.to_path_buf())).await
     }
 
+    /// Starts an insecure coordinator with `config` and `workers` workers.
+    pub async fn start_config(workers: usize, config: ServerConfig) -> TestCluster {
+        Self::start_with(workers, config, None).await
+    }
+
     async fn start_with(workers: usize, config: ServerConfig, dir: Option<PathBuf>) -> TestCluster {
         let listener = tokio::net::TcpListener::bind("127.0.0.1:0").await.expect("bind");
         let addr = listener.local_addr().expect("addr");

@@ -166,3 +166,35 @@ async fn files_outside_the_scene_folder_are_not_uploaded_unless_allowed() {
     cluster.stop().await;
     std::fs::remove_dir_all(dir).ok();
 }
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_client_cannot_open_watches_without_bound() {
+    use farm_coordinator::server::MAX_WATCHES_PER_TOKEN;
+    let cluster = TestCluster::start(1, Duration::from_millis(300)).await;
+    let remote = farm_cli::client::Remote::insecure(&cluster.url);
+    let opts = RemoteOptions { spp: Some(1), detach: true, ..Default::default() };
+    let job = client::start(&remote, &scene(), &opts).await.expect("submit").job;
+    let mut c = client::connect(&remote).await.expect("connect");
+    // Streams nobody reads (each may come to hold the finished image).
+    let mut open = Vec::new();
+    for _ in 0..MAX_WATCHES_PER_TOKEN {
+        let s = c.watch_job(v1::WatchJobRequest { job_id: job }).await.expect("watch");
+        open.push(s.into_inner());
+    }
+    let e = c.watch_job(v1::WatchJobRequest { job_id: job }).await.expect_err("one too many");
+    assert_eq!(e.code(), tonic::Code::ResourceExhausted, "{e}");
+    // Closing one frees its slot.
+    drop(open.pop());
+    let mut freed = None;
+    for _ in 0..50 {
+        match c.watch_job(v1::WatchJobRequest { job_id: job }).await {
+            Ok(s) => {
+                freed = Some(s);
+                break;
+            }
+            Err(_) => tokio::time::sleep(Duration::from_millis(20)).await,
+        }
+    }
+    assert!(freed.is_some(), "a closed watch kept its slot");
+    cluster.stop().await;
+}

@@ -323,3 +323,30 @@ async fn a_large_image_arrives_in_chunks_intact() {
     assert_eq!(farm.error, Some(error), "the chunked error estimate differs");
     cluster.stop().await;
 }
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_job_whose_client_went_away_is_cancelled_unless_detached() {
+    let mut config =
+        farm_coordinator::server::ServerConfig::with_heartbeat(Duration::from_millis(100));
+    config.client_grace = Duration::from_millis(600);
+    // No workers: both jobs stay queued, so only the grace period acts.
+    let cluster = TestCluster::start_config(0, config).await;
+    let remote = client::Remote::insecure(&cluster.url);
+    let submit = |detach| {
+        let opts = RemoteOptions { spp: Some(1), detach, ..Default::default() };
+        let remote = remote.clone();
+        async move { client::start(&remote, &scene(), &opts).await.expect("submit").job }
+    };
+    let (left, detached) = (submit(false).await, submit(true).await);
+    // A third is watched throughout, and so is kept.
+    let watched = submit(false).await;
+    let mut c = client::connect(&remote).await.expect("connect");
+    let _watch = c.watch_job(v1::WatchJobRequest { job_id: watched }).await.expect("watch");
+    tokio::time::sleep(Duration::from_millis(1500)).await;
+    let status = client::status(&remote).await.expect("status");
+    let state = |id| status.jobs.iter().find(|j| j.job_id == id).expect("job").state.clone();
+    assert_eq!(state(left), "cancelled");
+    assert_eq!(state(detached), "queued");
+    assert_eq!(state(watched), "queued");
+    cluster.stop().await;
+}

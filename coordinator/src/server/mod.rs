@@ -6,6 +6,7 @@ pub(crate) mod events;
 mod service;
 
 pub use events::{Event, FromWorker};
+pub use service::MAX_WATCHES_PER_TOKEN;
 
 use crate::scheduler::SchedulerConfig;
 use crate::security::{Authenticate, Security};

@@ -39,6 +39,44 @@ pub struct CoordinatorService {
     next_worker: Arc<AtomicU64>,
     heartbeat: Duration,
     limits: Limits,
+    /// Open WatchJob streams per token.
+    watches: Arc<Mutex<HashMap<String, u32>>>,
+}
+
+/// The most WatchJob streams one token may have open: each may hold a
+/// finished image its reader has not taken yet.
+pub const MAX_WATCHES_PER_TOKEN: u32 = 16;
+
+/// A WatchJob stream that gives its token's slot back when it ends.
+struct Watched {
+    inner: Option<UnboundedReceiverStream<Result<v1::JobEvent, Status>>>,
+    slots: Arc<Mutex<HashMap<String, u32>>>,
+    token: String,
+}
+
+impl Stream for Watched {
+    type Item = Result<v1::JobEvent, Status>;
+    fn poll_next(
+        mut self: Pin<&mut Self>,
+        cx: &mut std::task::Context<'_>,
+    ) -> std::task::Poll<Option<Self::Item>> {
+        match &mut self.inner {
+            Some(s) => Pin::new(s).poll_next(cx),
+            None => std::task::Poll::Ready(None),
+        }
+    }
+}
+
+impl Drop for Watched {
+    fn drop(&mut self) {
+        let mut m = self.slots.lock().unwrap_or_else(|p| p.into_inner());
+        if let Some(n) = m.get_mut(&self.token) {
+            *n = n.saturating_sub(1);
+            if *n == 0 {
+                m.remove(&self.token);
+            }
+        }
+    }
 }
 
 impl CoordinatorService {
@@ -57,6 +95,7 @@ impl CoordinatorService {
             next_worker: Arc::new(AtomicU64::new(1)),
             heartbeat,
             limits,
+            watches: Arc::default(),
         }
     }
 
@@ -336,15 +375,27 @@ impl Coordinator for CoordinatorService {
         let by = require(&req, Action::Submit)?;
         let job = JobId(req.into_inner().job_id);
         self.check_owner(&by, job).await?;
+        let mut slot = {
+            let mut m = self.watches.lock().unwrap_or_else(|p| p.into_inner());
+            let n = m.entry(by.id.clone()).or_default();
+            if *n >= MAX_WATCHES_PER_TOKEN {
+                warn!(token = %by.id, "watch refused: too many open");
+                return Err(Error::TooManyWatches(MAX_WATCHES_PER_TOKEN).into());
+            }
+            *n += 1;
+            Watched { inner: None, slots: self.watches.clone(), token: by.id.clone() }
+        };
         let (tx, rx) = mpsc::unbounded_channel();
         let (reply, known) = oneshot::channel();
         self.send(Event::Watch { job, tx, reply })?;
         // No answer at all means the event loop has stopped: the
         // coordinator is shutting down, which is not the same as "no job".
+        // (The slot is given back if this fails: `slot` is dropped.)
         if !answer(known).await? {
             return Err(Error::NoJob(job.0).into());
         }
-        Ok(Response::new(Box::pin(UnboundedReceiverStream::new(rx))))
+        slot.inner = Some(UnboundedReceiverStream::new(rx));
+        Ok(Response::new(Box::pin(slot)))
     }
 
     async fn get_status(
