@@ -464,3 +464,72 @@ fn restore(conn: &Connection) -> rusqlite::Result<Restored> {
     let next_job = jobs.iter().map(|j| j.id + 1).max().unwrap_or(1).max(next_job as u64);
     Ok(Restored { next_job, jobs, blobs })
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::scheduler::Owner;
+    use farm_common::film::FilmGeometry;
+    use farm_common::geometry::{Bounds2i, Point2i, Vec2};
+
+    fn spec(blobs: Vec<Hash>) -> JobSpec {
+        let b = Bounds2i::new(Point2i::new(0, 0), Point2i::new(8, 8));
+        let geometry = FilmGeometry::new(
+            Point2i::new(8, 8),
+            b,
+            Vec2::splat(0.5),
+            1.0,
+            f32::INFINITY,
+            "x.exr".into(),
+            35.0,
+        );
+        JobSpec {
+            name: "j".into(),
+            priority: 0,
+            scene_hash: blobs[0].to_vec(),
+            spp_override: 0,
+            spp: 1,
+            geometry,
+            owner: Owner::default(),
+            detach: false,
+            blobs,
+        }
+    }
+
+    async fn purge(j: &Journal, jobs: Vec<u64>) -> Vec<Hash> {
+        let (reply, rx) = oneshot::channel();
+        j.send(Command::Purge { jobs, unreferenced_before: unix_now() + 10, reply });
+        let mut v = rx.await.unwrap();
+        v.sort();
+        v
+    }
+
+    #[tokio::test]
+    async fn purges_forget_jobs_and_report_the_blobs_no_job_needs() {
+        let (j, _) = Journal::open(None).unwrap();
+        let (a, b, c) = ([1u8; 32], [2u8; 32], [3u8; 32]);
+        for h in [a, b, c] {
+            j.send(Command::BlobStored { hash: h, size: 10, owner: "t".into() });
+        }
+        let s1 = spec(vec![a, b]);
+        j.send(Command::Submitted {
+            id: 1,
+            detach: false,
+            blobs: s1.blobs.clone(),
+            spec: Box::new(s1),
+        });
+        let s2 = spec(vec![b]);
+        j.send(Command::Submitted {
+            id: 2,
+            detach: false,
+            blobs: s2.blobs.clone(),
+            spec: Box::new(s2),
+        });
+        // Only c is needed by no job.
+        assert_eq!(purge(&j, vec![]).await, vec![c]);
+        // Job 1 goes: a with it; b is still job 2's.
+        assert_eq!(purge(&j, vec![1]).await, vec![a]);
+        assert_eq!(purge(&j, vec![2]).await, vec![b]);
+        assert_eq!(purge(&j, vec![]).await, Vec::<Hash>::new());
+    }
+}
