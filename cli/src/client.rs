@@ -183,7 +183,6 @@ fn transient(e: &Error) -> bool {
     match e {
         Error::Rpc(s) => matches!(s.code(), Code::Unavailable | Code::Unknown | Code::Cancelled),
         Error::Connect(farm_proto::connect::ConnectError::Failed { .. }) => true,
-        Error::Protocol(_) => true,
         _ => false,
     }
 }
@@ -262,7 +261,8 @@ async fn watch_once(
             None => {}
         }
     }
-    Err(Error::Protocol("the job's event stream ended without an image".into()))
+    // The coordinator went away between events (a shutdown, a restart).
+    Err(Error::Rpc(tonic::Status::unavailable("the job's event stream ended without an image")))
 }
 
 /// Jobs and workers.

@@ -24,6 +24,10 @@ use tokio_stream::{Stream, StreamExt};
 use tonic::{Request, Response, Status, Streaming};
 use tracing::{info, warn};
 
+/// The largest scene manifest (the scene file and its includes, without
+/// assets) a coordinator decodes.
+pub const MAX_MANIFEST: u64 = 256 << 20;
+
 /// Bytes per `FetchBlob` chunk: smaller than uploads' chunks, since what a
 /// stalled reader pins in memory is a few of them.
 const DOWNLOAD_CHUNK: usize = BLOB_CHUNK_SIZE / 4;
@@ -326,6 +330,17 @@ impl Coordinator for CoordinatorService {
         check_version(r.protocol_version)?;
         let manifest_hash: Hash =
             r.scene_hash.as_slice().try_into().map_err(|_| Error::NoManifest)?;
+        // The coordinator decodes the manifest, so its size is bounded
+        // before it is read (assets are only hashed, never decoded here).
+        let size = self.blobs.size(&manifest_hash).ok_or(Error::NoManifest)?;
+        if size > MAX_MANIFEST {
+            return Err(Error::BadManifest(format!(
+                "the scene manifest is {}, over the {} a coordinator decodes",
+                crate::state::bytes(size),
+                crate::state::bytes(MAX_MANIFEST)
+            ))
+            .into());
+        }
         let manifest = self.blobs.read(&manifest_hash).await.ok_or(Error::NoManifest)?;
         let (desc, assets) =
             decode_manifest(&manifest).map_err(|e| Error::BadManifest(e.to_string()))?;
