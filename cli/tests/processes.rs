@@ -7,7 +7,7 @@
 mod common;
 
 use common::{
-    farm, free_port, memory, scene, start_coordinator, start_coordinator_on,
+    farm, free_port, memory, scene, spawn_worker, start_coordinator, start_coordinator_on,
     start_coordinator_with, status, token_file, Procs,
 };
 use std::process::Stdio;
@@ -24,14 +24,7 @@ fn sigkill_of_a_worker_process_changes_no_byte() {
     let client_token = token_file(&state, "client");
 
     for name in ["w1", "w2"] {
-        let w = farm()
-            .args(["worker", "--coordinator", &url, "--threads", "1", "--name", name])
-            .arg("--token-file")
-            .arg(&worker_token)
-            .stderr(Stdio::null())
-            .spawn()
-            .expect("start worker");
-        procs.0.push(w);
+        procs.0.push(spawn_worker(&url, &worker_token, name));
     }
 
     let farm_out = dir.join("farm.pfm");
@@ -91,14 +84,7 @@ fn sigkill_of_the_coordinator_loses_only_the_tiles_in_flight() {
     let worker_token = token_file(&state, "worker");
     let client_token = token_file(&state, "client");
     for name in ["w1", "w2"] {
-        let w = farm()
-            .args(["worker", "--coordinator", &url, "--threads", "1", "--name", name])
-            .arg("--token-file")
-            .arg(&worker_token)
-            .stderr(Stdio::null())
-            .spawn()
-            .expect("start worker");
-        procs.0.push(w);
+        procs.0.push(spawn_worker(&url, &worker_token, name));
     }
     let farm_out = dir.join("farm.pfm");
     let submit = farm()

@@ -4,7 +4,7 @@
 use super::{FinishedJob, JobUpdate, Outbox, Record, Scheduler};
 use crate::merge::{Accepted, Film};
 use farm_common::film::{FilmGeometry, FilmTile};
-use farm_common::ids::{JobId, TileAttempt, TileId, WorkerId};
+use farm_common::ids::{JobId, TileAttempt, WorkerId};
 use farm_common::stats::RayStats;
 use std::collections::{HashMap, HashSet, VecDeque};
 use std::time::{Duration, Instant};
@@ -94,6 +94,29 @@ pub(super) struct Job {
     pub(super) ended_at: Option<i64>,
 }
 
+impl Job {
+    /// A job with no film, no tiles queued and nothing counted yet.
+    pub(super) fn new(id: JobId, spec: JobSpec, state: JobState) -> Job {
+        Job {
+            id,
+            spec,
+            state,
+            film: None,
+            pending: VecDeque::new(),
+            in_flight: HashMap::new(),
+            attempts: HashMap::new(),
+            failures: HashMap::new(),
+            worker_failures: HashMap::new(),
+            stats: RayStats::default(),
+            started: None,
+            done_tiles: 0,
+            last_progress: Instant::now(),
+            finished: None,
+            ended_at: None,
+        }
+    }
+}
+
 /// What a new watcher of a job is told first.
 #[derive(Clone, Debug, PartialEq)]
 pub enum Snapshot {
@@ -136,23 +159,9 @@ impl Scheduler {
         self.next_job += 1;
         let total = spec.geometry.tile_count();
         info!(job = id.0, name = %spec.name, tiles = total, priority = spec.priority, "job queued");
-        let job = Job {
-            id,
-            film: Some(Film::new(spec.geometry.clone())),
-            spec,
-            state: JobState::Queued,
-            pending: (0..total).collect(),
-            in_flight: HashMap::new(),
-            attempts: HashMap::new(),
-            failures: HashMap::new(),
-            worker_failures: HashMap::new(),
-            stats: RayStats::default(),
-            started: None,
-            done_tiles: 0,
-            last_progress: Instant::now(),
-            finished: None,
-            ended_at: None,
-        };
+        let mut job = Job::new(id, spec, JobState::Queued);
+        job.film = Some(Film::new(job.spec.geometry.clone()));
+        job.pending = (0..total).collect();
         out.record(Record::Submitted { job: id, spec: &job.spec });
         self.jobs.insert(id, job);
         if total == 0 {
@@ -441,98 +450,5 @@ impl Scheduler {
         j.finished = (!out.durable()).then(|| finished.clone());
         info!(job = job.0, seconds = render_seconds, "job done");
         out.notify(job, JobUpdate::Finished(finished));
-    }
-}
-
-impl Scheduler {
-    /// The id the next submitted job gets (after a restart: past every job
-    /// the journal has seen).
-    pub fn set_next_job(&mut self, next: u64) {
-        self.next_job = self.next_job.max(next);
-    }
-
-    /// Puts back a job read from the journal: an ended one as it ended; an
-    /// active one with its accepted tiles merged again in tile order (so
-    /// the image is bit-identical to an uninterrupted render) and every
-    /// other tile queued.
-    pub fn restore(&mut self, saved: crate::state::SavedJob, out: &mut impl Outbox) {
-        use crate::state::Ending;
-        let id = JobId(saved.id);
-        let total = saved.spec.geometry.tile_count();
-        let state = match saved.ending {
-            Some(Ending::Done) => JobState::Done,
-            Some(Ending::Failed(m)) => JobState::Failed(m),
-            Some(Ending::Cancelled) => JobState::Cancelled,
-            None if saved.attempts.is_empty() => JobState::Queued,
-            None => JobState::Running,
-        };
-        let mut job = Job {
-            id,
-            film: None,
-            state,
-            pending: VecDeque::new(),
-            in_flight: HashMap::new(),
-            attempts: saved.attempts.into_iter().collect(),
-            failures: HashMap::new(),
-            worker_failures: HashMap::new(),
-            stats: RayStats::default(),
-            started: None,
-            done_tiles: 0,
-            last_progress: Instant::now(),
-            finished: None,
-            ended_at: saved.ended_at,
-            spec: saved.spec,
-        };
-        if job.state == JobState::Done {
-            job.done_tiles = total;
-        }
-        if job.state.is_active() {
-            let mut film = Film::new(job.spec.geometry.clone());
-            for (tile, ft, stats) in saved.tiles {
-                match film.check(TileId(tile), &ft) {
-                    Ok(Accepted::New) => {
-                        film.insert(TileId(tile), ft);
-                        job.stats.add(&stats);
-                        job.done_tiles += 1;
-                    }
-                    Ok(Accepted::Duplicate) => {}
-                    Err(e) => {
-                        warn!(job = id.0, tile, error = %e, "a journalled tile is refused: it renders again")
-                    }
-                }
-            }
-            job.pending = (0..total).filter(|t| !film.has(TileId(*t))).collect();
-            job.film = Some(film);
-            if job.state == JobState::Running {
-                job.started = Some(Instant::now());
-            }
-            info!(job = id.0, done = job.done_tiles, total, "job resumed");
-        }
-        self.next_job = self.next_job.max(id.0 + 1);
-        let complete = job.film.as_ref().is_some_and(|f| f.is_complete());
-        self.jobs.insert(id, job);
-        if complete {
-            self.finish(id, out);
-        }
-        self.fill(out);
-    }
-
-    /// Forgets the jobs that ended more than `keep` before `now` (seconds
-    /// since the epoch) and returns them, for the journal to purge.
-    pub fn expire(&mut self, now: i64, keep: Duration) -> Vec<JobId> {
-        let keep = keep.as_secs() as i64;
-        let old: Vec<JobId> = self
-            .jobs
-            .values()
-            .filter(|j| {
-                !j.state.is_active() && j.ended_at.is_some_and(|t| t.saturating_add(keep) <= now)
-            })
-            .map(|j| j.id)
-            .collect();
-        for id in &old {
-            self.jobs.remove(id);
-            info!(job = id.0, "finished job purged after its retention period");
-        }
-        old
     }
 }

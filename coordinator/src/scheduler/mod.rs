@@ -10,6 +10,7 @@
 mod fill;
 mod jobs;
 mod outbox;
+mod restore;
 #[cfg(test)]
 mod tests;
 mod workers;
