@@ -266,7 +266,7 @@ mod bvh {
             .into_iter()
             .map(|shape| Primitive { shape, material: Some(0), area_light: None })
             .collect();
-        let aggregate = Aggregate::new(prims);
+        let aggregate = Aggregate::new(prims, farm_render::accel::DEFAULT_MAX_PRIMS_IN_NODE);
 
         // A pinhole camera looking at the centre from above and to one side.
         let mut rng = Rng::new(4);

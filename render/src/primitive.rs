@@ -37,9 +37,10 @@ pub struct Aggregate {
 }
 
 impl Aggregate {
-    /// Builds the BVH and stores the primitives in its order.
-    pub fn new(prims: Vec<Primitive>) -> Self {
-        let (bvh, prims) = Bvh::build_over(prims, |p| p.shape.bounds(), 4);
+    /// Builds the BVH, with at most `max_prims` primitives in a leaf, and
+    /// stores the primitives in its order.
+    pub fn new(prims: Vec<Primitive>, max_prims: usize) -> Self {
+        let (bvh, prims) = Bvh::build_over(prims, |p| p.shape.bounds(), max_prims);
         Aggregate { prims, bvh }
     }
 

@@ -127,16 +127,6 @@ impl Renderer {
         if iname == "whitted" {
             warnings.extend(ip.unused_warnings());
         }
-        if !desc.accelerator.name.is_empty() && desc.accelerator.name != "bvh" {
-            warnings.push(Warning::at(
-                &desc.accelerator.loc,
-                format!(
-                    "Accelerator \"{}\" is not supported; using \"bvh\"",
-                    desc.accelerator.name
-                ),
-            ));
-        }
-
         let world = World::build(desc, render_from_world, &mut warnings)?;
         let features = Features::of(desc);
         let differentials = features.needs_differentials() || opts.all_paths;

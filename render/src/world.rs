@@ -44,6 +44,7 @@ impl World {
         warnings: &mut Vec<Warning>,
     ) -> Result<World, BuildError> {
         let rfw = Transform::from_dmat4(render_from_world);
+        let max_prims = crate::accel::max_prims_in_node(&desc.accelerator, warnings);
         let textures = textures::build(&desc.textures, &rfw, &desc.assets, warnings);
         let materials = materials::build(&desc.materials, &textures, warnings);
         let mut lights = Vec::new();
@@ -85,7 +86,7 @@ impl World {
                 }
                 if !local.is_empty() {
                     instances.push(Instance {
-                        geometry: Arc::new(Aggregate::new(local)),
+                        geometry: Arc::new(Aggregate::new(local, max_prims)),
                         placement: placement(&s.world_from_object, render_from_world),
                     });
                 }
@@ -113,7 +114,7 @@ impl World {
                         let xf = Transform::from_dmat4(s.world_from_object.start);
                         add_shape(s, &xf, None, &mut local, warnings);
                     }
-                    Arc::new(Aggregate::new(local))
+                    Arc::new(Aggregate::new(local, max_prims))
                 })
                 .clone();
             if geometry.is_empty() {
@@ -125,7 +126,7 @@ impl World {
             });
         }
 
-        let aggregate = Aggregate::new(prims);
+        let aggregate = Aggregate::new(prims, max_prims);
         let (instance_bvh, instances) = Bvh::build_over(instances, Instance::bounds, 1);
         let bounds = aggregate.bounds().union(&instance_bvh.bounds());
 

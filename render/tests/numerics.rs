@@ -109,6 +109,7 @@ fn closed_mesh_is_watertight_at_shared_edges_and_vertices() {
             .into_iter()
             .map(|shape| Primitive { shape, material: None, area_light: None })
             .collect(),
+        farm_render::accel::DEFAULT_MAX_PRIMS_IN_NODE,
     );
     let (mut rays, mut missed, mut leaked) = (0u64, 0u64, 0u64);
     let mut check = |o: Vec3, target: Vec3, inner: Option<Vec3>| {

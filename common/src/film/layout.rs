@@ -286,7 +286,7 @@ pub fn sample_count(
             up
         }
         SamplerKind::MaxMinDist => {
-            let mut n = pixel_samples(4);
+            let mut n = pixel_samples(16);
             if n > MAX_MIN_DIST_MAX_SPP {
                 warn(format!(
                     "No more than {MAX_MIN_DIST_MAX_SPP} samples per pixel are supported with MaxMinDistSampler. Rounding down."

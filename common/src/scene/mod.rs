@@ -8,4 +8,4 @@ mod params;
 
 pub use description::*;
 pub use loc::{FileLoc, Warning};
-pub use params::{Param, ParamSet, ParamValue, Params, TextureRef};
+pub use params::{record_lookups, Lookup, Param, ParamSet, ParamValue, Params, TextureRef};

@@ -6,7 +6,7 @@ use super::loc::{FileLoc, Warning};
 use crate::spectrum::Spectrum;
 use glam::{Vec2, Vec3};
 use serde::{Deserialize, Serialize};
-use std::cell::Cell;
+use std::cell::{Cell, RefCell};
 
 /// A texture named by a `"texture name"` parameter, resolved against the
 /// float and spectrum textures in scope where the parameter was written.
@@ -104,9 +104,50 @@ impl ParamSet {
 
     /// Removes and returns every parameter of that name.
     pub fn take(&mut self, name: &str) -> Option<Param> {
+        note(name, "any", None);
         let i = self.params.iter().position(|p| p.name == name)?;
         Some(self.params.remove(i))
     }
+}
+
+/// One parameter lookup made by a constructor: what it asked for, and the
+/// default it falls back on (`None` for lookups of a whole list, which have
+/// none). Collected by [`record_lookups`], so a test can compare every
+/// constructor's names and defaults with pbrt-v3's.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Lookup {
+    /// The parameter's name.
+    pub name: String,
+    /// The type asked for, as written in a scene file.
+    pub kind: &'static str,
+    /// The default, formatted with `{:?}`.
+    pub default: Option<String>,
+}
+
+thread_local! {
+    static LOOKUPS: RefCell<Option<Vec<Lookup>>> = const { RefCell::new(None) };
+}
+
+/// Runs `f` and returns, beside its result, every parameter lookup made on
+/// this thread while it ran, in order. Outside a call, lookups cost a
+/// thread-local read and nothing is kept.
+pub fn record_lookups<R>(f: impl FnOnce() -> R) -> (R, Vec<Lookup>) {
+    let outer = LOOKUPS.with(|l| l.borrow_mut().replace(Vec::new()));
+    let r = f();
+    let got = LOOKUPS.with(|l| std::mem::replace(&mut *l.borrow_mut(), outer));
+    (r, got.unwrap_or_default())
+}
+
+fn note(name: &str, kind: &'static str, default: Option<&dyn std::fmt::Debug>) {
+    LOOKUPS.with(|l| {
+        if let Some(v) = l.borrow_mut().as_mut() {
+            v.push(Lookup {
+                name: name.to_string(),
+                kind,
+                default: default.map(|d| format!("{d:?}")),
+            });
+        }
+    });
 }
 
 /// A reader over a [`ParamSet`] that records which parameters were used.
@@ -117,9 +158,10 @@ pub struct Params<'a> {
 }
 
 macro_rules! finders {
-    ($one:ident, $many:ident, $variant:ident, $elem:ty, $out:ty, $conv:expr) => {
+    ($one:ident, $many:ident, $variant:ident, $kind:literal, $elem:ty, $out:ty, $conv:expr) => {
         /// The first value of the parameter, or `default`.
         pub fn $one(&self, name: &str, default: $out) -> $out {
+            note(name, $kind, Some(&default));
             match self.find(name, |v| matches!(v, ParamValue::$variant(_))) {
                 Some(ParamValue::$variant(v)) if !v.is_empty() => $conv(&v[0]),
                 _ => default,
@@ -127,6 +169,7 @@ macro_rules! finders {
         }
         /// All values of the parameter, if given.
         pub fn $many(&self, name: &str) -> Option<&'a [$elem]> {
+            note(name, $kind, None);
             match self.find(name, |v| matches!(v, ParamValue::$variant(_))) {
                 Some(ParamValue::$variant(v)) => Some(v.as_slice()),
                 _ => None,
@@ -157,18 +200,19 @@ impl<'a> Params<'a> {
         None
     }
 
-    finders!(int, ints, Int, i32, i32, |v: &i32| *v);
-    finders!(float, floats, Float, f32, f32, |v: &f32| *v);
-    finders!(bool, bools, Bool, bool, bool, |v: &bool| *v);
-    finders!(point2, point2s, Point2, [f32; 2], Vec2, |v: &[f32; 2]| Vec2::from(*v));
-    finders!(vector2, vector2s, Vector2, [f32; 2], Vec2, |v: &[f32; 2]| Vec2::from(*v));
-    finders!(point3, point3s, Point3, [f32; 3], Vec3, |v: &[f32; 3]| Vec3::from(*v));
-    finders!(vector3, vector3s, Vector3, [f32; 3], Vec3, |v: &[f32; 3]| Vec3::from(*v));
-    finders!(normal, normals, Normal, [f32; 3], Vec3, |v: &[f32; 3]| Vec3::from(*v));
-    finders!(spectrum, spectra, Spectrum, Spectrum, Spectrum, |v: &Spectrum| *v);
+    finders!(int, ints, Int, "integer", i32, i32, |v: &i32| *v);
+    finders!(float, floats, Float, "float", f32, f32, |v: &f32| *v);
+    finders!(bool, bools, Bool, "bool", bool, bool, |v: &bool| *v);
+    finders!(point2, point2s, Point2, "point2", [f32; 2], Vec2, |v: &[f32; 2]| Vec2::from(*v));
+    finders!(vector2, vector2s, Vector2, "vector2", [f32; 2], Vec2, |v: &[f32; 2]| Vec2::from(*v));
+    finders!(point3, point3s, Point3, "point3", [f32; 3], Vec3, |v: &[f32; 3]| Vec3::from(*v));
+    finders!(vector3, vector3s, Vector3, "vector3", [f32; 3], Vec3, |v: &[f32; 3]| Vec3::from(*v));
+    finders!(normal, normals, Normal, "normal", [f32; 3], Vec3, |v: &[f32; 3]| Vec3::from(*v));
+    finders!(spectrum, spectra, Spectrum, "spectrum", Spectrum, Spectrum, |v: &Spectrum| *v);
 
     /// The first string value, or `default`.
     pub fn string(&self, name: &str, default: &str) -> String {
+        note(name, "string", Some(&default));
         match self.find(name, |v| matches!(v, ParamValue::String(_))) {
             Some(ParamValue::String(v)) if !v.is_empty() => v[0].clone(),
             _ => default.to_string(),
@@ -177,6 +221,7 @@ impl<'a> Params<'a> {
 
     /// All string values, if given.
     pub fn strings(&self, name: &str) -> Option<&'a [String]> {
+        note(name, "string", None);
         match self.find(name, |v| matches!(v, ParamValue::String(_))) {
             Some(ParamValue::String(v)) => Some(v.as_slice()),
             _ => None,
@@ -185,6 +230,7 @@ impl<'a> Params<'a> {
 
     /// The texture named by `"texture name"`, if given.
     pub fn texture(&self, name: &str) -> Option<&'a TextureRef> {
+        note(name, "texture", None);
         match self.find(name, |v| matches!(v, ParamValue::Texture(_))) {
             Some(ParamValue::Texture(t)) => Some(t),
             _ => None,
@@ -193,6 +239,7 @@ impl<'a> Params<'a> {
 
     /// The material resolved for a `namedmaterial1/2`-style parameter.
     pub fn material(&self, name: &str) -> Option<u32> {
+        note(name, "string", None);
         match self.find(name, |v| matches!(v, ParamValue::Material(_))) {
             Some(ParamValue::Material(m)) => Some(*m),
             _ => None,
@@ -202,6 +249,7 @@ impl<'a> Params<'a> {
     /// Marks a parameter as used without reading it (for parameters pbrt-v3
     /// reads but this renderer has no use for, such as `nsamples`).
     pub fn touch(&self, name: &str) {
+        note(name, "any", None);
         let _ = self.find(name, |_| true);
     }
 

@@ -18,7 +18,7 @@ pub struct SpotLight {
     pub i: Spectrum,
     /// cos of `coneangle`.
     pub cos_total_width: f32,
-    /// cos of `coneangle - conedelta`.
+    /// cos of `coneangle - conedeltaangle`.
     pub cos_falloff_start: f32,
 }
 
@@ -59,7 +59,7 @@ impl SpotLight {
     pub(super) fn create(p: &Params, render_from_light: &Transform) -> Self {
         let i = p.spectrum("I", Spectrum::ONE) * p.spectrum("scale", Spectrum::ONE);
         let cone = p.float("coneangle", 30.0);
-        let delta = p.float("conedelta", 5.0);
+        let delta = p.float("conedeltaangle", 5.0);
         let from = p.point3("from", Vec3::ZERO);
         let to = p.point3("to", Vec3::Z);
         let dir = (to - from).normalize();

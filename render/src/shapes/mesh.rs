@@ -131,6 +131,9 @@ pub(super) fn triangle_mesh(
     }
     let s = params.vector3s("S");
     let n = params.normals("N");
+    // pbrt-v3 keeps per-face indices for Ptex lookups; without Ptex they
+    // change nothing.
+    params.touch("faceIndices");
     let alpha = alpha_param(params, "alpha", warnings);
     let shadow_alpha = alpha_param(params, "shadowalpha", warnings);
     let Some(p) = p else {
