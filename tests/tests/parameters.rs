@@ -46,8 +46,6 @@ const MISSING: &[(&str, &str)] = &[
     ("CreateFourierMaterial", "not built yet"),
     ("CreateMarbleSpectrumTexture", "not built yet"),
     ("CreateNURBS", "not built yet"),
-    ("CreateGoniometricLight", "not built yet"),
-    ("CreateProjectionLight", "not built yet"),
 ];
 
 /// Names a constructor farm has reads in pbrt-v3 but not in farm, and why.

@@ -9,6 +9,7 @@ mod projective;
 
 pub use create::create;
 pub use orthographic::OrthographicCamera;
+pub(crate) use perspective::perspective;
 pub use perspective::PerspectiveCamera;
 pub use projective::ProjectiveCamera;
 

@@ -3,7 +3,7 @@
 //! `lights/infinite.cpp`), sampled in proportion to its brightness.
 
 use super::LightSample;
-use crate::image::{read_image, MipMap, WrapMode};
+use crate::image::{MipMap, WrapMode};
 use crate::interaction::Interaction;
 use crate::sampling::Distribution2D;
 use farm_common::geometry::{Ray, Transform, Vec2, Vec3};
@@ -109,13 +109,13 @@ impl InfiniteLight {
 
 /// θ of a unit vector, in [0, π].
 #[inline]
-fn spherical_theta(v: Vec3) -> f32 {
+pub(super) fn spherical_theta(v: Vec3) -> f32 {
     v.z.clamp(-1.0, 1.0).acos()
 }
 
 /// φ of a vector, in [0, 2π).
 #[inline]
-fn spherical_phi(v: Vec3) -> f32 {
+pub(super) fn spherical_phi(v: Vec3) -> f32 {
     let p = v.y.atan2(v.x);
     if p < 0.0 {
         p + 2.0 * PI
@@ -137,28 +137,12 @@ impl InfiniteLight {
         let l = p.spectrum("L", Spectrum::ONE) * p.spectrum("scale", Spectrum::ONE);
         p.touch("samples");
         p.touch("nsamples");
-        let map = p.string("mapname", "");
-        let (w, h, texels) = if map.is_empty() {
-            (1, 1, vec![l])
-        } else {
-            match assets.get(&map).map(|b| read_image(b, &map)) {
-                Some(Ok(img)) => {
-                    let texels = img.pixels.iter().map(|&[r, g, b]| Spectrum::new(r, g, b) * l);
-                    (img.width, img.height, texels.collect())
-                }
-                Some(Err(err)) => {
-                    warnings
-                        .push(Warning::at(&e.loc, format!("{map}: {err}; using a constant map")));
-                    (1, 1, vec![l])
-                }
-                None => {
-                    warnings.push(Warning::at(
-                        &e.loc,
-                        format!("{map}: not loaded; using a constant map"),
-                    ));
-                    (1, 1, vec![l])
-                }
+        let (w, h, texels) = match super::create::image_map(p, e, assets, warnings) {
+            Some(img) => {
+                let texels = img.pixels.iter().map(|&[r, g, b]| Spectrum::new(r, g, b) * l);
+                (img.width, img.height, texels.collect())
             }
+            None => (1, 1, vec![l]),
         };
         InfiniteLight::new(*render_from_light, w, h, texels)
     }

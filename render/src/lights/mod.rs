@@ -4,15 +4,19 @@
 mod create;
 mod diffuse;
 mod distant;
+mod goniometric;
 mod infinite;
 mod point;
+mod projection;
 mod spot;
 
 pub use create::create;
 pub use diffuse::DiffuseAreaLight;
 pub use distant::DistantLight;
+pub use goniometric::GoniometricLight;
 pub use infinite::InfiniteLight;
 pub use point::PointLight;
+pub use projection::ProjectionLight;
 pub use spot::SpotLight;
 
 use crate::interaction::Interaction;
@@ -40,6 +44,10 @@ pub enum Light {
     Point(PointLight),
     /// `LightSource "spot"`
     Spot(SpotLight),
+    /// `LightSource "goniometric"`
+    Goniometric(Box<GoniometricLight>),
+    /// `LightSource "projection"`
+    Projection(Box<ProjectionLight>),
     /// `LightSource "distant"`
     Distant(DistantLight),
     /// `AreaLightSource "diffuse"` on one shape.
@@ -56,6 +64,8 @@ impl Light {
         match self {
             Light::Point(l) => l.sample_li(r),
             Light::Spot(l) => l.sample_li(r),
+            Light::Goniometric(l) => l.sample_li(r),
+            Light::Projection(l) => l.sample_li(r),
             Light::Distant(l) => l.sample_li(r),
             Light::Area(l) => l.sample_li(r, u),
             Light::Infinite(l) => l.sample_li(r, u),

@@ -1,0 +1,69 @@
+//! The scenes in `scenes/parity/` (one per pbrt-v3 feature added after the
+//! shared scenes) render within 2× C++ pbrt-v3's own error against its
+//! ground truth, as the shared scenes are checked. The table of pbrt-v3's
+//! errors is `scenes/parity/README.md`, written by `scripts/parity-reference`.
+
+use farm_cli::embedded::{self, SubmitOptions};
+use farm_common::image::{compare, read_file};
+use std::path::Path;
+
+struct Row {
+    scene: String,
+    ground_truth: String,
+    pbrt_rel_mse: f64,
+}
+
+fn rows(dir: &Path) -> Vec<Row> {
+    let text = std::fs::read_to_string(dir.join("README.md")).expect("scenes/parity/README.md");
+    text.lines()
+        .filter(|l| l.starts_with("| ") && !l.starts_with("| scene"))
+        .map(|l| {
+            let f: Vec<&str> = l.trim_matches('|').split('|').map(str::trim).collect();
+            assert_eq!(f.len(), 4, "bad row {l:?}");
+            Row {
+                scene: f[0].to_string(),
+                ground_truth: f[2].to_string(),
+                pbrt_rel_mse: f[3].parse().expect("relMSE"),
+            }
+        })
+        .collect()
+}
+
+#[test]
+fn parity_scenes_match_pbrt_v3_within_twice_its_error() {
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../scenes/parity");
+    let only = std::env::var("FARM_SCENE").ok();
+    let rows = rows(&dir);
+    assert!(rows.len() >= 3, "the parity table lists {} scenes", rows.len());
+    let mut failures = Vec::new();
+    println!("{:<16} {:>11} {:>11} {:>6}", "scene", "relMSE", "pbrt-v3", "ratio");
+    for r in &rows {
+        if only.as_deref().is_some_and(|o| o != r.scene) {
+            continue;
+        }
+        let path = dir.join(format!("{}.pbrt", r.scene));
+        let gt = dir.join("reference").join(format!("{}-{}.exr", r.scene, "gt"));
+        assert!(r.ground_truth.starts_with("gt"), "{}: ground truth {}", r.scene, r.ground_truth);
+        let image = match embedded::render(&path, &SubmitOptions::default(), |_| {}) {
+            Ok(s) => s.image,
+            Err(e) => {
+                failures.push(format!("{}: {e}", r.scene));
+                continue;
+            }
+        };
+        let reference = read_file(&gt).expect("ground truth");
+        let Some(d) = compare(&image, &reference) else {
+            failures.push(format!("{}: size differs from the ground truth", r.scene));
+            continue;
+        };
+        let ratio = d.rel_mse / r.pbrt_rel_mse;
+        println!("{:<16} {:>11.3e} {:>11.3e} {:>6.2}", r.scene, d.rel_mse, r.pbrt_rel_mse, ratio);
+        if d.non_finite > 0 || ratio > 2.0 {
+            failures.push(format!(
+                "{}: relMSE {:.3e} is {ratio:.2}× pbrt-v3's {:.3e} ({} non-finite pixels)",
+                r.scene, d.rel_mse, r.pbrt_rel_mse, d.non_finite
+            ));
+        }
+    }
+    assert!(failures.is_empty(), "{}", failures.join("\n"));
+}
