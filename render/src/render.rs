@@ -134,7 +134,7 @@ impl Renderer {
         // with a lens; the sampler passes over the others.
         let camera_dims = CameraDims {
             time: features.moving > 0 || features.moving_camera || opts.all_paths,
-            lens: camera.projective().lens_radius > 0.0 || opts.all_paths,
+            lens: camera.lens_radius() > 0.0 || opts.all_paths,
         };
 
         // Filter values at the centres of a 16×16 grid over one quadrant.

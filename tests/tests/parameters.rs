@@ -38,13 +38,11 @@ const MISSING: &[(&str, &str)] = &[
     ),
     // Not yet built (issue 13); each leaves this list when it lands.
     ("CreateRealisticCamera", "not built yet"),
-    ("CreateEnvironmentCamera", "not built yet"),
     ("CreateDisneyMaterial", "not built yet"),
     ("CreateHairMaterial", "not built yet"),
     ("CreateKdSubsurfaceMaterial", "not built yet"),
     ("CreateSubsurfaceMaterial", "not built yet"),
     ("CreateFourierMaterial", "not built yet"),
-    ("CreateMarbleSpectrumTexture", "not built yet"),
     ("CreateNURBS", "not built yet"),
 ];
 
@@ -74,6 +72,7 @@ const EXPRESSION_DEFAULTS: &[(&str, &str, &str)] = &[
     ("CreateMetalMaterial", "k", "copper's measured absorption"),
     ("CreateOrthographicCamera", "frameaspectratio", "the film's aspect ratio"),
     ("CreatePerspectiveCamera", "frameaspectratio", "the film's aspect ratio"),
+    ("CreateEnvironmentCamera", "frameaspectratio", "the film's aspect ratio"),
     ("CreateSphereShape", "zmin", "-radius"),
     ("CreateSphereShape", "zmax", "radius"),
 ];
@@ -127,6 +126,8 @@ fn slot(function: &str) -> Option<Slot> {
         "CreateBVHAccelerator" => Options("Accelerator", "bvh"),
         "CreatePerspectiveCamera" => Options("Camera", "perspective"),
         "CreateOrthographicCamera" => Options("Camera", "orthographic"),
+        "CreateEnvironmentCamera" => Options("Camera", "environment"),
+        "CreateRealisticCamera" => Options("Camera", "realistic"),
         "CreateFilm" => Options("Film", "image"),
         "CreateBoxFilter" => Options("PixelFilter", "box"),
         "CreateGaussianFilter" => Options("PixelFilter", "gaussian"),

@@ -3,7 +3,7 @@
 //! in its own file.
 
 use super::projective::common;
-use super::{Camera, OrthographicCamera, PerspectiveCamera};
+use super::{Camera, EnvironmentCamera, OrthographicCamera, PerspectiveCamera};
 use farm_common::film::FilmGeometry;
 use farm_common::geometry::AnimatedTransform;
 use farm_common::scene::{Entity, Params, Warning};
@@ -31,17 +31,21 @@ pub fn create(
     }
     let name = entity.name.as_str();
     match name {
-        "perspective" | "orthographic" => {}
-        "realistic" | "environment" => warnings.push(Warning::at(
+        "perspective" | "orthographic" | "environment" => {}
+        "realistic" => warnings.push(Warning::at(
             &entity.loc,
             format!("Camera \"{name}\" is not supported; using \"perspective\"."),
         )),
         _ => warnings.push(Warning::at(&entity.loc, format!("Camera \"{name}\" unknown."))),
     }
-    let c = common(&p, entity, film, warnings);
+    // pbrt-v3's environment camera reads a focal distance it never uses,
+    // with its own default.
+    let focal_default = if name == "environment" { 1e30 } else { 1e6 };
+    let c = common(&p, entity, film, focal_default, warnings);
     let (rfc, res) = (render_from_camera, film.full_resolution);
     let camera = match name {
         "orthographic" => Camera::Orthographic(OrthographicCamera::create(rfc, &c, res)),
+        "environment" => Camera::Environment(EnvironmentCamera::create(rfc, &c, res)),
         _ => Camera::Perspective(PerspectiveCamera::create(&p, rfc, &c, res)),
     };
     warnings.extend(p.unused_warnings());
@@ -87,7 +91,7 @@ mod tests {
         let c = create(&Entity::named("perspective"), fixed(), &film(20, 10), &mut w);
         assert!(w.is_empty(), "{w:?}");
         assert_eq!(c.shutter(), (0.0, 1.0));
-        let p = c.projective();
+        let p = c.projective().unwrap();
         assert_eq!((p.lens_radius, p.focal_distance), (0.0, 1e6));
         // Wide film: the 90° field of view is vertical, the window 2:1.
         let s = CameraSample { p_film: Vec2::new(0.0, 5.0), ..Default::default() };
@@ -147,7 +151,7 @@ mod tests {
         );
         let scaled = AnimatedTransform::fixed(Transform::new(Mat4::from_scale(Vec3::splat(2.0))));
         let c = create(&e, scaled, &film(8, 8), &mut w);
-        assert!(matches!(c, Camera::Orthographic(_)) && c.projective().lens_radius == 0.5);
+        assert!(matches!(c, Camera::Orthographic(_)) && c.lens_radius() == 0.5);
         assert!(w.len() == 1 && w[0].message.starts_with("Scaling detected"), "{w:?}");
     }
 }

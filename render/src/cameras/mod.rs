@@ -1,13 +1,15 @@
-//! Cameras: `Camera "perspective"` and `Camera "orthographic"` (pbrt-v3
-//! `cameras/perspective.cpp`, `cameras/orthographic.cpp`), which turn film
-//! samples into rays in render space.
+//! Cameras: `Camera "perspective"`, `"orthographic"` and `"environment"`
+//! (pbrt-v3 `cameras/perspective.cpp`, `orthographic.cpp`,
+//! `environment.cpp`), which turn film samples into rays in render space.
 
 mod create;
+mod environment;
 mod orthographic;
 mod perspective;
 mod projective;
 
 pub use create::create;
+pub use environment::EnvironmentCamera;
 pub use orthographic::OrthographicCamera;
 pub(crate) use perspective::perspective;
 pub use perspective::PerspectiveCamera;
@@ -23,6 +25,8 @@ pub enum Camera {
     Perspective(PerspectiveCamera),
     /// `Camera "orthographic"`.
     Orthographic(OrthographicCamera),
+    /// `Camera "environment"`.
+    Environment(EnvironmentCamera),
 }
 
 impl Camera {
@@ -32,6 +36,7 @@ impl Camera {
         match self {
             Camera::Perspective(c) => c.generate_ray(s),
             Camera::Orthographic(c) => c.generate_ray(s),
+            Camera::Environment(c) => c.generate_ray(s),
         }
     }
 
@@ -41,20 +46,29 @@ impl Camera {
         match self {
             Camera::Perspective(c) => c.generate_ray_differential(s),
             Camera::Orthographic(c) => c.generate_ray_differential(s),
+            Camera::Environment(c) => c.generate_ray_differential(s),
         }
     }
 
     /// Shutter open and close times.
     pub fn shutter(&self) -> (f32, f32) {
-        let p = self.projective();
-        (p.shutter_open, p.shutter_close)
+        match self {
+            Camera::Environment(c) => (c.shutter_open, c.shutter_close),
+            _ => self.projective().map_or((0.0, 1.0), |p| (p.shutter_open, p.shutter_close)),
+        }
     }
 
-    /// The state shared by projective cameras.
-    pub fn projective(&self) -> &ProjectiveCamera {
+    /// The radius of the camera's lens; 0 for a pinhole.
+    pub fn lens_radius(&self) -> f32 {
+        self.projective().map_or(0.0, |p| p.lens_radius)
+    }
+
+    /// The state shared by projective cameras, for those that are.
+    pub fn projective(&self) -> Option<&ProjectiveCamera> {
         match self {
-            Camera::Perspective(c) => &c.base,
-            Camera::Orthographic(c) => &c.base,
+            Camera::Perspective(c) => Some(&c.base),
+            Camera::Orthographic(c) => Some(&c.base),
+            Camera::Environment(_) => None,
         }
     }
 }

@@ -108,6 +108,7 @@ pub(super) fn common(
     p: &Params,
     entity: &Entity,
     film: &FilmGeometry,
+    focal_default: f32,
     warnings: &mut Vec<Warning>,
 ) -> Common {
     let mut shutter_open = p.float("shutteropen", 0.0);
@@ -120,7 +121,7 @@ pub(super) fn common(
         std::mem::swap(&mut shutter_open, &mut shutter_close);
     }
     let lens_radius = p.float("lensradius", 0.0);
-    let focal_distance = p.float("focaldistance", 1e6);
+    let focal_distance = p.float("focaldistance", focal_default);
     let res = film.full_resolution;
     let frame = p.float("frameaspectratio", res.x as f32 / res.y as f32);
     let mut screen = if frame > 1.0 {

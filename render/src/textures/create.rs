@@ -6,8 +6,8 @@ use super::checkerboard::{AaMode, Checkerboard2D, Checkerboard3D};
 use super::imagemap::{Cached, Caches};
 use super::mapping::{Mapping2D, Mapping3D, Spaces};
 use super::{
-    Bilerp, Dots, Fbm, ImageMap, Mix, Resolver, Scale, Texture, TextureSet, UvTexture, Windy,
-    Wrinkled,
+    Bilerp, Dots, Fbm, ImageMap, Marble, Mix, Resolver, Scale, Texture, TextureSet, UvTexture,
+    Windy, Wrinkled,
 };
 use farm_common::geometry::Transform;
 use farm_common::scene::{Params, TextureEntity, TextureKind, Warning};
@@ -100,6 +100,13 @@ fn make<T: Cached>(
             octaves: p.int("octaves", 8),
         }),
         "windy" => Texture::Windy(Windy { mapping: solid }),
+        "marble" if is_spectrum => Texture::Marble(Marble {
+            mapping: solid,
+            octaves: p.int("octaves", 8),
+            omega: p.float("roughness", 0.5),
+            scale: p.float("scale", 1.0),
+            variation: p.float("variation", 0.2),
+        }),
         other => {
             let kind = if is_spectrum { "Spectrum" } else { "Float" };
             w.push(Warning::at(loc, format!("{kind} texture type \"{other}\" unknown.")));

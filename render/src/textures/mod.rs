@@ -19,7 +19,7 @@ pub use bilerp::Bilerp;
 pub use checkerboard::{AaMode, Checkerboard2D, Checkerboard3D};
 pub use create::{build, uses_differentials};
 pub use dots::Dots;
-pub use fbm::{Fbm, Windy, Wrinkled};
+pub use fbm::{Fbm, Marble, Windy, Wrinkled};
 pub use imagemap::ImageMap;
 pub use mapping::{Mapping2D, Mapping3D};
 pub use mix::Mix;
@@ -105,6 +105,8 @@ pub enum Texture<T: TexValue> {
     Wrinkled(Wrinkled),
     /// `"windy"`.
     Windy(Windy),
+    /// `"marble"` (spectrum only).
+    Marble(Marble),
 }
 
 /// Every texture of a scene, by index into `SceneDescription::textures`
@@ -147,6 +149,7 @@ impl<T: TexValue> Texture<T> {
             Texture::Fbm(t) => T::splat(t.evaluate(si)),
             Texture::Wrinkled(t) => T::splat(t.evaluate(si)),
             Texture::Windy(t) => T::splat(t.evaluate(si)),
+            Texture::Marble(t) => T::from_spectrum(t.evaluate(si)),
         }
     }
 
@@ -154,9 +157,11 @@ impl<T: TexValue> Texture<T> {
     pub fn uses_differentials(&self) -> bool {
         match self {
             Texture::Checkerboard2D(c) => c.aa == AaMode::ClosedForm,
-            Texture::ImageMap(_) | Texture::Fbm(_) | Texture::Wrinkled(_) | Texture::Windy(_) => {
-                true
-            }
+            Texture::ImageMap(_)
+            | Texture::Fbm(_)
+            | Texture::Wrinkled(_)
+            | Texture::Windy(_)
+            | Texture::Marble(_) => true,
             _ => false,
         }
     }
