@@ -40,8 +40,6 @@ const MISSING: &[(&str, &str)] = &[
     ("CreateRealisticCamera", "not built yet"),
     ("CreateDisneyMaterial", "not built yet"),
     ("CreateHairMaterial", "not built yet"),
-    ("CreateKdSubsurfaceMaterial", "not built yet"),
-    ("CreateSubsurfaceMaterial", "not built yet"),
     ("CreateFourierMaterial", "not built yet"),
     ("CreateNURBS", "not built yet"),
 ];
@@ -73,6 +71,17 @@ const EXPRESSION_DEFAULTS: &[(&str, &str, &str)] = &[
     ("CreateOrthographicCamera", "frameaspectratio", "the film's aspect ratio"),
     ("CreatePerspectiveCamera", "frameaspectratio", "the film's aspect ratio"),
     ("CreateEnvironmentCamera", "frameaspectratio", "the film's aspect ratio"),
+    ("CreateKdSubsurfaceMaterial", "Kd", "grey 0.5, for the BSSRDF, which Whitted ignores"),
+    (
+        "CreateSubsurfaceMaterial",
+        "sigma_a",
+        "measured skim milk, for the BSSRDF, which Whitted ignores",
+    ),
+    (
+        "CreateSubsurfaceMaterial",
+        "sigma_s",
+        "measured skim milk, for the BSSRDF, which Whitted ignores",
+    ),
     ("CreateSphereShape", "zmin", "-radius"),
     ("CreateSphereShape", "zmax", "radius"),
 ];

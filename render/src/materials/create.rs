@@ -4,10 +4,11 @@
 //! sits in its own file.
 
 use super::{
-    Glass, Material, Matte, Metal, Mirror, MixMaterial, Plastic, Substrate, Translucent, Uber,
+    subsurface, Glass, Material, Matte, Metal, Mirror, MixMaterial, Plastic, Substrate,
+    Translucent, Uber,
 };
 use crate::textures::{Resolver, TexInput, TextureSet};
-use farm_common::scene::{MaterialEntity, Params, Warning};
+use farm_common::scene::{FileLoc, MaterialEntity, Params, Warning};
 use farm_common::Spectrum;
 
 /// What every material's constructor reads: its parameters, the textures
@@ -15,6 +16,7 @@ use farm_common::Spectrum;
 pub(super) struct MaterialParams<'a> {
     p: &'a Params<'a>,
     r: &'a Resolver<'a>,
+    loc: &'a FileLoc,
     /// `"float bumpmap"` (a float texture), if given.
     pub bump: Option<TexInput<f32>>,
     /// `"bool remaproughness"`.
@@ -47,6 +49,18 @@ impl MaterialParams<'_> {
         self.r.float_or_none(self.p, name, w)
     }
 
+    /// A plain float parameter (never a texture), defaulting to `v`.
+    pub fn value(&self, name: &str, v: f32) -> f32 {
+        self.p.float(name, v)
+    }
+    /// A string parameter, defaulting to `v`.
+    pub fn string(&self, name: &str, v: &str) -> String {
+        self.p.string(name, v)
+    }
+    /// A warning at the material's directive.
+    pub fn warn(&self, w: &mut Vec<Warning>, message: String) {
+        w.push(Warning::at(self.loc, message));
+    }
     /// The index of refraction: `eta`, or its older name `index`.
     pub fn eta(&self, w: &mut Vec<Warning>) -> TexInput<f32> {
         self.opt("eta", w).unwrap_or_else(|| self.f("index", 1.5, w))
@@ -61,12 +75,14 @@ fn make(
     w: &mut Vec<Warning>,
 ) -> Material {
     let bump = r.float_or_none(p, "bumpmap", w);
-    let m = MaterialParams { p, r, bump, remap: p.bool("remaproughness", true) };
     let loc = &e.entity.loc;
+    let m = MaterialParams { p, r, loc, bump, remap: p.bool("remaproughness", true) };
     match e.entity.name.as_str() {
         "plastic" => Material::Plastic(Plastic::create(m, w)),
         "mirror" => Material::Mirror(Mirror::create(m, w)),
         "glass" => Material::Glass(Glass::create(m, w)),
+        "subsurface" => Material::Glass(subsurface::subsurface(m, w)),
+        "kdsubsurface" => Material::Glass(subsurface::kd_subsurface(m, w)),
         "metal" => Material::Metal(Metal::create(m, w)),
         "uber" => Material::Uber(Uber::create(m, w)),
         "substrate" => Material::Substrate(Substrate::create(m, w)),

@@ -10,6 +10,7 @@ mod mirror;
 mod mix;
 mod plastic;
 mod substrate;
+mod subsurface;
 mod translucent;
 mod uber;
 
