@@ -23,11 +23,39 @@ pub fn read_file(path: &Path, loc: &FileLoc) -> Result<Vec<u8>> {
     })
 }
 
-/// The file named by a string parameter, resolved against `dir`.
-fn string_param(entity: &Entity, name: &str, dir: &Path) -> Option<(PathBuf, FileLoc)> {
+/// A file a scene names, found as pbrt-v3 finds it: relative to the main
+/// scene file's directory (`search`, pbrt-v3's search directory), else,
+/// if there is no such file, relative to `dir`, the directory of the file
+/// that names it. Large scenes rely on both: San Miguel's geometry files
+/// name their PLYs from the main file's directory, while hand-split scenes
+/// often name them from their own. An absolute path stands as written.
+pub fn resolve(search: &Path, dir: &Path, name: &str) -> PathBuf {
+    let name = Path::new(name);
+    if name.is_absolute() {
+        return name.to_path_buf();
+    }
+    let primary = search.join(name);
+    if search == dir || primary.exists() {
+        return primary;
+    }
+    let local = dir.join(name);
+    if local.exists() {
+        local
+    } else {
+        primary
+    }
+}
+
+/// The file named by a string parameter, resolved by [`resolve`].
+fn string_param(
+    entity: &Entity,
+    name: &str,
+    search: &Path,
+    dir: &Path,
+) -> Option<(PathBuf, FileLoc)> {
     entity.params.params.iter().find_map(|p| match &p.value {
         ParamValue::String(v) if p.name == name && !v.is_empty() => {
-            Some((dir.join(&v[0]), p.loc.clone()))
+            Some((resolve(search, dir, &v[0]), p.loc.clone()))
         }
         _ => None,
     })
@@ -68,7 +96,7 @@ impl Builder {
         param: &str,
         dir: &Path,
     ) -> Result<()> {
-        let Some((path, loc)) = string_param(entity, param, dir) else {
+        let Some((path, loc)) = string_param(entity, param, &self.search_dir, dir) else {
             return Ok(());
         };
         let key = asset_key(&self.root, &path);
@@ -89,7 +117,7 @@ impl Builder {
     /// Reads a `plymesh`'s file and turns the shape into a `trianglemesh`
     /// with `P`, `N` (if present), `uv` (if present) and `indices`.
     pub(super) fn load_plymesh(&mut self, entity: &mut Entity, dir: &Path) -> Result<()> {
-        let Some((path, loc)) = string_param(entity, "filename", dir) else {
+        let Some((path, loc)) = string_param(entity, "filename", &self.search_dir, dir) else {
             return Err(SceneError::BadValue {
                 loc: entity.loc.clone(),
                 decl: "string filename".into(),

@@ -76,6 +76,9 @@ pub struct Builder {
     /// The folder of the scene's main file (canonical when it exists):
     /// asset keys are relative to it.
     pub root: std::path::PathBuf,
+    /// The main scene file's directory, against which pbrt-v3 resolves
+    /// every file a scene names (`assets::resolve`).
+    pub search_dir: std::path::PathBuf,
     /// Warnings so far.
     pub warnings: Vec<Warning>,
     /// Which block the parser is in.
@@ -120,6 +123,7 @@ impl Builder {
         Builder {
             scene,
             root: std::path::PathBuf::new(),
+            search_dir: std::path::PathBuf::new(),
             warnings: Vec::new(),
             block: Block::Options,
             ctm: TransformSet::default(),

@@ -67,6 +67,7 @@ fn parse(
     let mut p = parser::Parser::new(name);
     let base = if dir.as_os_str().is_empty() { Path::new(".") } else { dir };
     p.builder.root = std::fs::canonicalize(base).unwrap_or_else(|_| base.to_path_buf());
+    p.builder.search_dir = dir.to_path_buf();
     p.parse_text(text, file, dir)?;
     Ok(p.builder.finish(&p.end))
 }

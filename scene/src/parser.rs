@@ -4,7 +4,7 @@
 //! ```text
 //! Shape "sphere" "float radius" 2          # name, then "type name" value(s)
 //! Transform [ 1 0 0 0  0 1 0 0  0 0 1 0  0 0 5 1 ]
-//! Include "geometry/killeroo.pbrt"         # relative to this file's directory
+//! Include "geometry/killeroo.pbrt"         # as assets::resolve finds files
 //! ```
 
 use super::builder::{Block, Builder};
@@ -275,7 +275,7 @@ impl Parser {
     }
 
     fn include(&mut self, name: &str, loc: &FileLoc, dir: &Path) -> Result<()> {
-        let path = dir.join(name);
+        let path = crate::assets::resolve(&self.builder.search_dir, dir, name);
         let file = path.to_string_lossy().into_owned();
         if self.depth >= MAX_INCLUDE_DEPTH {
             return Err(SceneError::Syntax {
@@ -423,7 +423,8 @@ impl Parser {
             } else {
                 self.value(t, ty, &decl.text, first)?;
             }
-            let cx = ValueContext { decl: &decl.text, loc: &loc, dir };
+            let search = &self.builder.search_dir;
+            let cx = ValueContext { decl: &decl.text, loc: &loc, search, dir };
             let value = values::convert(ty, &self.nums, &self.strs, &cx)?;
             set.add(Param { name: name.to_string(), value, loc });
         }

@@ -211,3 +211,45 @@ property float z\nelement face 1\nproperty list uchar int vertex_indices\nend_he
     assert!(msg.contains("t.ply") && msg.contains("truncated"), "{msg}");
     std::fs::remove_dir_all(dir).ok();
 }
+
+/// Files are found as pbrt-v3 finds them: relative to the main file's
+/// directory first (its search directory), then to the naming file's own.
+/// An included file that names a PLY from the main directory (as San
+/// Miguel's do) and one that names a file beside itself both load; a name
+/// found in neither is an error naming the search directory's path.
+#[test]
+fn files_resolve_against_the_main_directory_then_the_including_one() {
+    let dir = temp_dir("search");
+    std::fs::create_dir_all(dir.join("geometry")).unwrap();
+    let ply = "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\n\
+               property float z\nelement face 1\nproperty list uchar int vertex_indices\n\
+               end_header\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n";
+    std::fs::write(dir.join("geometry/main-relative.ply"), ply).unwrap();
+    std::fs::write(dir.join("geometry/beside.ply"), ply).unwrap();
+    std::fs::write(dir.join("geometry/beside.pbrt"), "Shape \"sphere\"\n").unwrap();
+    std::fs::write(
+        dir.join("geometry/part.pbrt"),
+        "Shape \"plymesh\" \"string filename\" \"geometry/main-relative.ply\"\n\
+         Shape \"plymesh\" \"string filename\" \"beside.ply\"\n\
+         Include \"beside.pbrt\"\n",
+    )
+    .unwrap();
+    std::fs::write(dir.join("main.pbrt"), "WorldBegin\nInclude \"geometry/part.pbrt\"\nWorldEnd\n")
+        .unwrap();
+    let (s, w) = crate::parse_file(&dir.join("main.pbrt")).unwrap();
+    assert!(w.is_empty(), "{w:?}");
+    let names: Vec<&str> = s.shapes.iter().map(|s| s.entity.name.as_str()).collect();
+    assert_eq!(names, ["trianglemesh", "trianglemesh", "sphere"]);
+
+    std::fs::write(
+        dir.join("geometry/part.pbrt"),
+        "Shape \"plymesh\" \"string filename\" \"nowhere.ply\"\n",
+    )
+    .unwrap();
+    let e = crate::parse_file(&dir.join("main.pbrt")).unwrap_err().to_string();
+    assert!(
+        e.contains("part.pbrt:1:") && e.contains(&*dir.join("nowhere.ply").to_string_lossy()),
+        "{e}"
+    );
+    std::fs::remove_dir_all(dir).ok();
+}

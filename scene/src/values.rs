@@ -100,7 +100,10 @@ pub struct ValueContext<'a> {
     pub decl: &'a str,
     /// Where the declaration is.
     pub loc: &'a FileLoc,
-    /// Directory of the file being parsed (for spectrum files).
+    /// The main scene file's directory (for spectrum files, as
+    /// `assets::resolve` finds them).
+    pub search: &'a Path,
+    /// Directory of the file being parsed.
     pub dir: &'a Path,
 }
 
@@ -210,7 +213,7 @@ fn sampled(v: &[f32]) -> Spectrum {
 /// Reads a `.spd` file (pbrt-v3 `ReadFloatFile`: numbers, `#` comments) and
 /// converts its (wavelength, value) pairs.
 fn spectrum_file(name: &str, cx: &ValueContext<'_>) -> Result<Spectrum> {
-    let path = cx.dir.join(name);
+    let path = crate::assets::resolve(cx.search, cx.dir, name);
     let path_str = path.to_string_lossy().into_owned();
     let text = std::fs::read_to_string(&path).map_err(|source| SceneError::File {
         loc: cx.loc.clone(),
@@ -244,7 +247,7 @@ mod tests {
     use super::*;
 
     fn cx<'a>(loc: &'a FileLoc, decl: &'a str) -> ValueContext<'a> {
-        ValueContext { decl, loc, dir: Path::new(".") }
+        ValueContext { decl, loc, search: Path::new("."), dir: Path::new(".") }
     }
 
     #[test]
@@ -303,7 +306,7 @@ mod tests {
         std::fs::create_dir_all(&dir).unwrap();
         std::fs::write(dir.join("a.spd"), "# comment\n400 0.5 # x\n700 1\n").unwrap();
         let loc = FileLoc::default();
-        let c = ValueContext { decl: "spectrum eta", loc: &loc, dir: &dir };
+        let c = ValueContext { decl: "spectrum eta", loc: &loc, search: &dir, dir: &dir };
         let v = convert(ParamType::Spectrum, &[], &["a.spd".into()], &c).unwrap();
         assert_eq!(
             v,
