@@ -58,6 +58,8 @@ pub struct RemoteOptions {
     pub detach: bool,
     /// How long to keep reconnecting to a coordinator that went away.
     pub reconnect_for: std::time::Duration,
+    /// What the command line changes in the scene (`--cropwindow`, `--quick`).
+    pub overrides: farm_scene::Overrides,
 }
 
 impl Default for RemoteOptions {
@@ -69,6 +71,7 @@ impl Default for RemoteOptions {
             allow_assets_outside: false,
             detach: false,
             reconnect_for: std::time::Duration::from_secs(600),
+            overrides: farm_scene::Overrides::default(),
         }
     }
 }
@@ -107,7 +110,8 @@ pub async fn start(
     opts: &RemoteOptions,
 ) -> Result<Submitted, Error> {
     let start = Instant::now();
-    let (desc, warnings) = farm_scene::parse_file(scene)?;
+    let (mut desc, mut warnings) = farm_scene::parse_file(scene)?;
+    opts.overrides.apply(&mut desc, &mut warnings);
     let outside: Vec<String> =
         desc.assets.keys().filter(|k| farm_scene::is_outside(k)).cloned().collect();
     if !outside.is_empty() && !opts.allow_assets_outside {

@@ -39,6 +39,8 @@ pub struct SubmitOptions {
     pub all_paths: bool,
     /// The largest film and sample counts to render.
     pub limits: Limits,
+    /// What the command line changes in the scene (`--cropwindow`, `--quick`).
+    pub overrides: farm_scene::Overrides,
 }
 
 /// Progress of a running render.
@@ -229,7 +231,8 @@ pub fn render(
     progress: impl FnMut(&Progress),
 ) -> Result<RenderSummary, Error> {
     let start = Instant::now();
-    let (desc, mut warnings) = farm_scene::parse_file(scene)?;
+    let (mut desc, mut warnings) = farm_scene::parse_file(scene)?;
+    opts.overrides.apply(&mut desc, &mut warnings);
     // Refuse an oversize film before anything is allocated for it.
     checked_layout(&desc, opts.spp, &opts.limits)?;
     let (renderer, build_warnings) =

@@ -46,7 +46,8 @@ pub fn film_and_sampler(
     debug_assert_eq!(filter.radius(), film.filter_radius);
     let sampler_entity =
         if desc.sampler.name.is_empty() { Entity::named("halton") } else { desc.sampler.clone() };
-    let sampler = sampler::create(&sampler_entity, film.sample_bounds, opts.spp, &mut warnings);
+    let sampler =
+        sampler::create(&sampler_entity, film.full_sample_bounds(), opts.spp, &mut warnings);
     (film, filter, sampler, warnings)
 }
 
@@ -115,7 +116,7 @@ impl Renderer {
             ));
         }
         let max_depth = ip.int("maxdepth", 5).max(0) as u32;
-        let mut pixel_bounds = film.sample_bounds;
+        let mut pixel_bounds = film.full_sample_bounds();
         if let Some(pb) = ip.ints("pixelbounds") {
             if pb.len() == 4 {
                 pixel_bounds = pixel_bounds.intersect(&Bounds2i::new(
@@ -173,16 +174,25 @@ impl Renderer {
     /// Renders one tile: its film tile of weighted sums and its ray counts.
     pub fn render_tile(&self, id: TileId) -> (FilmTile, RayStats) {
         let mut stats = RayStats::default();
-        let mut sampler = self.sampler.clone_with_seed(id.0 as u64);
+        let mut sampler = self.sampler.clone_with_seed(self.film.tile_seed(id));
         let bounds = self.film.tile_sample_bounds(id);
+        // Outside the film's sample bounds (a crop's edge tiles) only a
+        // sampler with state needs the samples, to reach the state it has
+        // for the samples inside.
+        let stateless = sampler.is_stateless();
         let mut tile = FilmTile::new(self.film.tile_pixel_bounds(id));
         let diff_scale = 1.0 / (sampler.samples_per_pixel() as f32).sqrt();
         let halves = sampler.halves();
         for pixel in bounds.iter() {
+            if stateless && !self.film.sample_bounds.contains(pixel) {
+                continue;
+            }
+            // As pbrt-v3: the pixel's samples are drawn before the
+            // integrator's `pixelbounds` are checked.
+            sampler.start_pixel(pixel);
             if !self.pixel_bounds.contains(pixel) {
                 continue;
             }
-            sampler.start_pixel(pixel);
             let mut index = 0u32;
             loop {
                 let cs = sampler.camera_sample_for(pixel, self.camera_dims);

@@ -13,6 +13,7 @@ mod assets;
 mod builder;
 /// Scene errors.
 pub mod error;
+mod overrides;
 mod parser;
 /// PLY mesh reader.
 pub mod ply;
@@ -29,6 +30,7 @@ mod tests;
 pub use assets::is_outside;
 pub use error::{Result, SceneError};
 use farm_common::scene::{FileLoc, SceneDescription, Warning};
+pub use overrides::Overrides;
 use std::path::Path;
 
 /// Parses a scene file and the files it includes.

@@ -12,14 +12,23 @@ pub struct SubmitArgs {
     /// The pbrt-v3 scene file.
     pub scene: PathBuf,
     /// Output image (.exr, .pfm or .png); default: the scene's Film filename.
-    #[arg(short, long)]
+    #[arg(short, long, visible_alias = "outfile")]
     pub output: Option<PathBuf>,
     /// Samples per pixel, overriding the scene's sampler.
     #[arg(long, value_parser = clap::value_parser!(u32).range(1..))]
     pub spp: Option<u32>,
     /// Render threads (default: one per core).
-    #[arg(long, default_value_t = 0)]
+    #[arg(long, default_value_t = 0, visible_alias = "nthreads")]
     pub threads: usize,
+    /// Render only this part of the film, as fractions of its width and
+    /// height (pbrt-v3's flag; a Film "cropwindow" in the scene wins). The
+    /// pixels are bit-identical to the same pixels of the whole render.
+    #[arg(long, num_args = 4, value_names = ["X0", "X1", "Y0", "Y1"])]
+    pub cropwindow: Option<Vec<f32>>,
+    /// A quick look: a quarter of the resolution each way and one sample
+    /// per pixel (pbrt-v3's --quick; the random sampler keeps its count).
+    #[arg(long)]
+    pub quick: bool,
     /// Print nothing but errors.
     #[arg(short, long)]
     pub quiet: bool,
@@ -83,6 +92,7 @@ async fn run_remote(args: SubmitArgs) -> ExitCode {
         allow_assets_outside: args.allow_assets_outside,
         detach: args.detach,
         reconnect_for: reconnect_for(args.reconnect_for),
+        overrides: overrides(&args),
     };
     if args.detach {
         return match crate::client::start(&remote, &args.scene, &opts).await {
@@ -115,6 +125,14 @@ async fn run_remote(args: SubmitArgs) -> ExitCode {
     }
 }
 
+/// What the command line changes in the scene.
+fn overrides(args: &SubmitArgs) -> farm_scene::Overrides {
+    farm_scene::Overrides {
+        crop_window: args.cropwindow.as_deref().map(|c| [c[0], c[1], c[2], c[3]]),
+        quick: args.quick,
+    }
+}
+
 fn run_embedded(args: SubmitArgs) -> ExitCode {
     let opts = SubmitOptions {
         output: args.output.clone(),
@@ -122,6 +140,7 @@ fn run_embedded(args: SubmitArgs) -> ExitCode {
         threads: args.threads,
         all_paths: false,
         limits: (&args.limits).into(),
+        overrides: overrides(&args),
     };
     let bar = crate::progress::progress_bar(args.quiet);
     let started = std::time::Instant::now();

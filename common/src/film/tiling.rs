@@ -19,7 +19,9 @@ pub struct FilmGeometry {
     pub filter_radius: Vec2,
     /// Pixels whose samples are taken: the cropped pixels grown by the filter.
     pub sample_bounds: Bounds2i,
-    /// Number of tiles across and down.
+    /// Number of tiles across and down. Tiles lie on the grid of the whole
+    /// film's tiles, so a crop renders the tiles of the full render that
+    /// reach it, exactly as the full render does (see `tile_sample_bounds`).
     pub n_tiles: Point2i,
     /// `scale` (multiplies the image when written).
     pub scale: f32,
@@ -106,21 +108,14 @@ impl FilmGeometry {
         filename: String,
         diagonal: f32,
     ) -> Self {
-        let (c, r) = (cropped_pixel_bounds, filter_radius);
-        let sample_bounds = Bounds2i::new(
-            Point2i::new(
-                (c.min.x as f32 + 0.5 - r.x).floor() as i32,
-                (c.min.y as f32 + 0.5 - r.y).floor() as i32,
-            ),
-            Point2i::new(
-                (c.max.x as f32 - 0.5 + r.x).ceil() as i32,
-                (c.max.y as f32 - 0.5 + r.y).ceil() as i32,
-            ),
-        );
-        let n_tiles = Point2i::new(
-            (sample_bounds.width() + TILE_SIZE - 1) / TILE_SIZE,
-            (sample_bounds.height() + TILE_SIZE - 1) / TILE_SIZE,
-        );
+        let sample_bounds = grown(cropped_pixel_bounds, filter_radius);
+        let full = grown(full_pixels(full_resolution), filter_radius);
+        let n_tiles = if sample_bounds.is_empty() {
+            Point2i::new(0, 0)
+        } else {
+            let (first, end) = grid_span(&full, &sample_bounds);
+            Point2i::new(end.x - first.x, end.y - first.y)
+        };
         FilmGeometry {
             full_resolution,
             cropped_pixel_bounds,
@@ -141,17 +136,44 @@ impl FilmGeometry {
         (self.n_tiles.x * self.n_tiles.y) as u32
     }
 
-    /// The pixels whose samples a tile takes.
-    pub fn tile_sample_bounds(&self, id: TileId) -> Bounds2i {
+    /// The samples of the whole, uncropped film: the grid tiles lie on,
+    /// and the bounds Halton's and Sobol's sequences are laid over, so a
+    /// pixel's samples do not depend on the crop.
+    pub fn full_sample_bounds(&self) -> Bounds2i {
+        grown(full_pixels(self.full_resolution), self.filter_radius)
+    }
+
+    /// A tile's position on the whole film's grid of tiles.
+    fn grid_cell(&self, id: TileId) -> Point2i {
         let i = id.0 as i32;
-        let (tx, ty) = (i % self.n_tiles.x, i / self.n_tiles.x);
-        let b = self.sample_bounds;
-        let x0 = b.min.x + tx * TILE_SIZE;
-        let y0 = b.min.y + ty * TILE_SIZE;
+        let (first, _) = grid_span(&self.full_sample_bounds(), &self.sample_bounds);
+        Point2i::new(first.x + i % self.n_tiles.x, first.y + i / self.n_tiles.x)
+    }
+
+    /// The pixels whose samples a tile takes: its cell of the whole film's
+    /// grid, as the full render's tile there takes them. Without a crop
+    /// this is pbrt-v3's tiling of the sample bounds. With one, the tiles
+    /// at the crop's edges take samples beyond its sample bounds that a
+    /// pixel sampler needs to reach the same state for the samples inside
+    /// them (the renderer skips them where the sampler has no state), which
+    /// makes a crop's pixels bit-identical to the full render's.
+    pub fn tile_sample_bounds(&self, id: TileId) -> Bounds2i {
+        let cell = self.grid_cell(id);
+        let b = self.full_sample_bounds();
+        let x0 = b.min.x + cell.x * TILE_SIZE;
+        let y0 = b.min.y + cell.y * TILE_SIZE;
         Bounds2i::new(
             Point2i::new(x0, y0),
             Point2i::new((x0 + TILE_SIZE).min(b.max.x), (y0 + TILE_SIZE).min(b.max.y)),
         )
+    }
+
+    /// The seed of a tile's sampler: its index in the whole film's grid
+    /// (pbrt-v3 seeds each tile with its index), the same in a crop.
+    pub fn tile_seed(&self, id: TileId) -> u64 {
+        let cell = self.grid_cell(id);
+        let across = (self.full_sample_bounds().width() + TILE_SIZE - 1) / TILE_SIZE;
+        (cell.y * across + cell.x) as u64
     }
 
     /// The image pixels a tile's samples can reach through the filter
@@ -169,6 +191,35 @@ impl FilmGeometry {
         );
         Bounds2i::new(p0, p1).intersect(&self.cropped_pixel_bounds)
     }
+}
+
+/// The pixels of a `res.x × res.y` film.
+fn full_pixels(res: Point2i) -> Bounds2i {
+    Bounds2i::new(Point2i::new(0, 0), res)
+}
+
+/// Pixels grown by a filter's radius: those whose samples reach `c`
+/// (pbrt-v3 `Film::GetSampleBounds`).
+fn grown(c: Bounds2i, r: Vec2) -> Bounds2i {
+    Bounds2i::new(
+        Point2i::new(
+            (c.min.x as f32 + 0.5 - r.x).floor() as i32,
+            (c.min.y as f32 + 0.5 - r.y).floor() as i32,
+        ),
+        Point2i::new(
+            (c.max.x as f32 - 0.5 + r.x).ceil() as i32,
+            (c.max.y as f32 - 0.5 + r.y).ceil() as i32,
+        ),
+    )
+}
+
+/// The cells of the grid of `TILE_SIZE` tiles laid from `full.min` that
+/// `b` (inside `full`) touches: the first, and one past the last.
+fn grid_span(full: &Bounds2i, b: &Bounds2i) -> (Point2i, Point2i) {
+    let cell = |v: i32, o: i32| (v - o).div_euclid(TILE_SIZE);
+    let first = Point2i::new(cell(b.min.x, full.min.x), cell(b.min.y, full.min.y));
+    let end = Point2i::new(cell(b.max.x - 1, full.min.x) + 1, cell(b.max.y - 1, full.min.y) + 1);
+    (first, end)
 }
 
 #[cfg(test)]

@@ -111,6 +111,12 @@ impl Sampler {
         Halves::of(kind, self.samples_per_pixel(), strata)
     }
 
+    /// Whether a pixel's samples depend on the pixel alone (Halton and
+    /// Sobol'), not on the pixels drawn before it in the tile.
+    pub fn is_stateless(&self) -> bool {
+        matches!(self, Sampler::Halton(_) | Sampler::Sobol(_))
+    }
+
     /// A copy for one tile (pbrt-v3 `Clone(seed)`): pixel samplers and the
     /// random sampler restart their generator on stream `seed`; Halton and
     /// Sobol' are deterministic and ignore it.

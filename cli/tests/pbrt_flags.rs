@@ -1,0 +1,43 @@
+//! pbrt-v3's command-line flags on `farm submit`, run as a user runs them.
+
+mod common;
+
+use common::{farm, scene};
+use farm_common::image::read_file;
+
+/// `--cropwindow` writes the full render's pixels there, bit for bit;
+/// `--outfile` and `--nthreads` are pbrt-v3's names for `-o` and
+/// `--threads`; `--quick` renders a quarter of the resolution each way.
+#[test]
+fn pbrt_v3_flags_crop_name_and_shrink_the_render() {
+    let dir = std::env::temp_dir().join(format!("farm-flags-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let (full, crop, quick) = (dir.join("full.pfm"), dir.join("crop.pfm"), dir.join("quick.pfm"));
+    let run = |extra: &[&str]| {
+        let out = farm()
+            .args(["submit", "--quiet", "--spp", "2"])
+            .arg(scene())
+            .args(extra)
+            .output()
+            .expect("farm submit");
+        assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    };
+    run(&["--outfile", full.to_str().unwrap(), "--nthreads", "2"]);
+    run(&["-o", crop.to_str().unwrap(), "--cropwindow", "0.25", "0.75", "0.25", "0.75"]);
+    run(&["-o", quick.to_str().unwrap(), "--quick"]);
+    let (full, crop, quick) =
+        (read_file(&full).unwrap(), read_file(&crop).unwrap(), read_file(&quick).unwrap());
+    assert_eq!((full.width, full.height), (480, 320));
+    assert_eq!((crop.width, crop.height), (240, 160));
+    assert_eq!((quick.width, quick.height), (120, 80));
+    for y in 0..crop.height {
+        for x in 0..crop.width {
+            let a = crop.pixels[y * crop.width + x].map(f32::to_bits);
+            let b = full.pixels[(y + 80) * full.width + x + 120].map(f32::to_bits);
+            assert_eq!(a, b, "pixel ({}, {})", x + 120, y + 80);
+        }
+    }
+    let out = farm().args(["submit", "--cropwindow", "0.5"]).arg(scene()).output().unwrap();
+    assert_eq!(out.status.code(), Some(2), "a crop window needs four numbers");
+    std::fs::remove_dir_all(&dir).ok();
+}
