@@ -334,10 +334,10 @@ impl Parser {
     fn number(&self, t: &mut Tokenizer<'_>, loc: &FileLoc, context: &str) -> Result<f64> {
         let tok = Self::required(t, loc, context, "a number")?;
         match tok.kind {
-            TokenKind::Bare => values::parse_number(&tok.text),
+            TokenKind::Bare => values::parse_transform_number(&tok.text),
             _ => None,
         }
-        .filter(|v| v.is_finite())
+        .filter(|v| v.is_finite() && v.abs() <= f64::from(f32::MAX))
         .ok_or_else(|| SceneError::Syntax {
             loc: t.loc(&tok),
             found: tok.describe(),

@@ -83,6 +83,19 @@ pub fn parse_decl(decl: &str) -> std::result::Result<(ParamType, &str), String> 
     }
 }
 
+/// A number of a transform directive (`Translate`, `LookAt`, `Transform`…),
+/// read in double precision: the transforms are composed in f64 until the
+/// scene moves into camera-centred render space, so coordinates near 1e6
+/// (geo-referenced scenes) keep their centimetres where pbrt-v3's `strtof`
+/// would round them to sixteenths.
+pub fn parse_transform_number(text: &str) -> Option<f64> {
+    let first = text.bytes().next()?;
+    if !(first.is_ascii_digit() || matches!(first, b'-' | b'+' | b'.')) {
+        return None;
+    }
+    text.parse::<f64>().ok()
+}
+
 /// pbrt-v3's `parseNumber`: all-digit words are read as integers, others as
 /// single-precision floats (`strtof`), then widened.
 pub fn parse_number(text: &str) -> Option<f64> {
@@ -266,6 +279,10 @@ mod tests {
         assert_eq!(parse_number("-.4"), Some(f64::from(-0.4f32)));
         assert_eq!(parse_number("8.742277657347586e-08"), Some(f64::from(8.742_278e-8_f32)));
         assert_eq!(parse_number("abc"), None);
+        assert_eq!(parse_transform_number("1000000.6"), Some(1000000.6));
+        assert_eq!(parse_transform_number("-.25"), Some(-0.25));
+        assert_eq!(parse_transform_number("inf"), None);
+        assert_eq!(parse_transform_number("nan"), None);
     }
 
     #[test]
