@@ -4,6 +4,7 @@
 use crate::embedded::RenderSummary;
 use crate::error::Error;
 use farm_common::film::FilmGeometry;
+use farm_common::scene::{SceneDescription, Warning};
 use farm_common::stats::RayStats;
 use farm_coordinator::estimate::ErrorEstimate;
 use farm_proto::auth::Token;
@@ -110,7 +111,20 @@ pub async fn start(
     opts: &RemoteOptions,
 ) -> Result<Submitted, Error> {
     let start = Instant::now();
-    let (mut desc, mut warnings) = farm_scene::parse_file(scene)?;
+    let (desc, warnings) = farm_scene::parse_file(scene)?;
+    start_parsed(remote, scene, desc, warnings, start, opts).await
+}
+
+/// Uploads a scene parsed from `scene` (its first file) and submits the
+/// job, as [`start`] does.
+pub async fn start_parsed(
+    remote: &Remote,
+    scene: &Path,
+    mut desc: SceneDescription,
+    mut warnings: Vec<Warning>,
+    start: Instant,
+    opts: &RemoteOptions,
+) -> Result<Submitted, Error> {
     opts.overrides.apply(&mut desc, &mut warnings);
     let outside: Vec<String> =
         desc.assets.keys().filter(|k| farm_scene::is_outside(k)).cloned().collect();
@@ -144,10 +158,25 @@ pub async fn submit(
     remote: &Remote,
     scene: &Path,
     opts: &RemoteOptions,
+    progress: impl FnMut(u64, &RemoteProgress),
+) -> Result<RenderSummary, Error> {
+    let start = Instant::now();
+    let (desc, warnings) = farm_scene::parse_file(scene)?;
+    submit_parsed(remote, scene, desc, warnings, start, opts, progress).await
+}
+
+/// Submits a parsed scene and follows it to its image, as [`submit`] does.
+pub async fn submit_parsed(
+    remote: &Remote,
+    scene: &Path,
+    desc: SceneDescription,
+    warnings: Vec<Warning>,
+    start: Instant,
+    opts: &RemoteOptions,
     mut progress: impl FnMut(u64, &RemoteProgress),
 ) -> Result<RenderSummary, Error> {
     let Submitted { job, client, desc, warnings, startup_seconds } =
-        start(remote, scene, opts).await?;
+        start_parsed(remote, scene, desc, warnings, start, opts).await?;
     let (film, _) = FilmGeometry::from_description(&desc);
     let done = follow(remote, job, Some(client), opts.reconnect_for, |p| progress(job, p)).await?;
     Ok(RenderSummary {

@@ -9,7 +9,7 @@ use crate::error::Error;
 use farm_common::film::{checked_layout, FilmGeometry, FilmTile, Limits};
 use farm_common::ids::{JobId, TileAttempt, TileId, WorkerId};
 use farm_common::image::{self, ImageMetadata, RgbImage};
-use farm_common::scene::Warning;
+use farm_common::scene::{SceneDescription, Warning};
 use farm_common::stats::RayStats;
 use farm_coordinator::estimate::ErrorEstimate;
 use farm_coordinator::scheduler::{
@@ -231,7 +231,19 @@ pub fn render(
     progress: impl FnMut(&Progress),
 ) -> Result<RenderSummary, Error> {
     let start = Instant::now();
-    let (mut desc, mut warnings) = farm_scene::parse_file(scene)?;
+    let (desc, warnings) = farm_scene::parse_file(scene)?;
+    render_parsed(desc, warnings, start, opts, progress)
+}
+
+/// Builds and renders a parsed scene (parsing began at `start`), as
+/// [`render`] does.
+pub fn render_parsed(
+    mut desc: SceneDescription,
+    mut warnings: Vec<Warning>,
+    start: Instant,
+    opts: &SubmitOptions,
+    progress: impl FnMut(&Progress),
+) -> Result<RenderSummary, Error> {
     opts.overrides.apply(&mut desc, &mut warnings);
     // Refuse an oversize film before anything is allocated for it.
     checked_layout(&desc, opts.spp, &opts.limits)?;

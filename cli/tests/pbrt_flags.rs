@@ -41,3 +41,54 @@ fn pbrt_v3_flags_crop_name_and_shrink_the_render() {
     assert_eq!(out.status.code(), Some(2), "a crop window needs four numbers");
     std::fs::remove_dir_all(&dir).ok();
 }
+
+/// Several files are one stream of scenes, each WorldEnd rendering one to
+/// its Film filename; `-` reads the scene from standard input and
+/// `.pbrt.gz` compressed, as pbrt-v3 and pbrt-v4 take them.
+#[test]
+fn several_files_stdin_and_gzip_are_read_as_pbrt_reads_them() {
+    use std::io::Write;
+    let dir = std::env::temp_dir().join(format!("farm-stream-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let scene = |name: &str, res: u32| {
+        format!(
+            "Film \"image\" \"integer xresolution\" [ {res} ] \"integer yresolution\" [ 8 ] \
+             \"string filename\" \"{name}\"\nSampler \"halton\" \"integer pixelsamples\" [ 1 ]\n\
+             WorldBegin\nLightSource \"infinite\"\nShape \"sphere\"\nWorldEnd\n"
+        )
+    };
+    std::fs::write(dir.join("a.pbrt"), scene("a.pfm", 8)).unwrap();
+    let mut gz = flate2_writer();
+    gz.write_all(scene("b.pfm", 12).as_bytes()).unwrap();
+    std::fs::write(dir.join("b.pbrt.gz"), gz.finish().unwrap()).unwrap();
+    let out = farm()
+        .current_dir(&dir)
+        .args(["submit", "--quiet", "a.pbrt", "b.pbrt.gz"])
+        .output()
+        .unwrap();
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    assert_eq!(read_file(&dir.join("a.pfm")).unwrap().width, 8);
+    assert_eq!(read_file(&dir.join("b.pfm")).unwrap().width, 12);
+
+    let out = farm()
+        .current_dir(&dir)
+        .args(["submit", "a.pbrt", "b.pbrt.gz", "-o", "one.pfm"])
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(2), "one --output for two scenes");
+
+    let mut child = farm()
+        .current_dir(&dir)
+        .args(["submit", "--quiet", "-", "-o", "stdin.pfm"])
+        .stdin(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    child.stdin.take().unwrap().write_all(scene("unused.pfm", 10).as_bytes()).unwrap();
+    assert!(child.wait().unwrap().success());
+    assert_eq!(read_file(&dir.join("stdin.pfm")).unwrap().width, 10);
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+fn flate2_writer() -> flate2::write::GzEncoder<Vec<u8>> {
+    flate2::write::GzEncoder::new(Vec::new(), flate2::Compression::default())
+}

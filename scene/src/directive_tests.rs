@@ -166,9 +166,10 @@ fn defaults_aliases_and_spectra() {
     );
     assert!(p.bool("flag", false));
     assert!(w.is_empty(), "{w:?}");
+    // What follows a WorldEnd is another scene, as in pbrt-v3.
     let (_, w) = parse("WorldBegin WorldEnd Shape \"sphere\"");
     assert_eq!(w.len(), 1);
-    assert!(w[0].message.contains("after WorldEnd"));
+    assert!(w[0].message.contains("describes 2 scenes"), "{w:?}");
 }
 
 #[test]

@@ -33,43 +33,121 @@ use farm_common::scene::{FileLoc, SceneDescription, Warning};
 pub use overrides::Overrides;
 use std::path::Path;
 
-/// Parses a scene file and the files it includes.
+/// Parses a scene file and the files it includes: the first scene it
+/// describes (see [`parse_files`] for inputs that describe several).
 pub fn parse_file(path: &Path) -> Result<(SceneDescription, Vec<Warning>)> {
-    let file = path.to_string_lossy().into_owned();
-    let text = std::fs::read_to_string(path).map_err(|source| SceneError::File {
-        loc: FileLoc { file: file.clone(), line: 1, column: 1 },
-        path: file.clone(),
-        source,
-    })?;
-    let dir = path.parent().unwrap_or(Path::new(""));
-    let name = path.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
-    parse(&text, &file, dir, &name)
+    let mut scenes = parse_files(&[path])?;
+    let (scene, mut warnings) = scenes.remove(0);
+    if !scenes.is_empty() {
+        let loc = FileLoc { file: path.to_string_lossy().into_owned(), line: 1, column: 1 };
+        warnings.push(Warning::at(
+            &loc,
+            format!("the file describes {} scenes; only the first is used here", scenes.len() + 1),
+        ));
+    }
+    Ok((scene, warnings))
+}
+
+/// Parses scene files as pbrt-v3's command line reads them: one stream,
+/// file after file, each `WorldEnd` finishing a scene and the next
+/// starting from fresh options. `-` is standard input; a name ending in
+/// `.gz` is gzip-compressed (as pbrt-v4 reads it). Files a scene names
+/// resolve against the directory of the file being read (pbrt-v3 sets its
+/// search directory for each file it is given); asset keys are relative to
+/// the first file's directory. There is always at least one scene.
+pub fn parse_files<P: AsRef<Path>>(paths: &[P]) -> Result<Vec<(SceneDescription, Vec<Warning>)>> {
+    let first = paths.first().map(AsRef::as_ref).unwrap_or(Path::new("-"));
+    let dir_of = |p: &Path| {
+        let d =
+            if p == Path::new("-") { Path::new("") } else { p.parent().unwrap_or(Path::new("")) };
+        if d.as_os_str().is_empty() {
+            Path::new(".").to_path_buf()
+        } else {
+            d.to_path_buf()
+        }
+    };
+    let mut p = parser::Parser::new(&scene_name(first));
+    let base = dir_of(first);
+    p.builder.root = std::fs::canonicalize(&base).unwrap_or_else(|_| base.clone());
+    for path in paths {
+        let path = path.as_ref();
+        let file = if path == Path::new("-") {
+            "<stdin>".to_string()
+        } else {
+            path.to_string_lossy().into_owned()
+        };
+        let start = FileLoc { file: file.clone(), line: 1, column: 1 };
+        let text = read_scene_text(path, &start)?;
+        let dir = dir_of(path);
+        p.builder.search_dir.clone_from(&dir);
+        p.parse_text(&text, &file, &dir)?;
+    }
+    let mut scenes = std::mem::take(&mut p.finished);
+    if p.started || scenes.is_empty() {
+        let end = std::mem::take(&mut p.end);
+        scenes.push(p.builder.finish(&end));
+    }
+    Ok(scenes)
+}
+
+/// The scene's name: its file's stem (`scene` for standard input).
+fn scene_name(path: &Path) -> String {
+    let name = path.file_name().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
+    let name = name.strip_suffix(".gz").unwrap_or(&name);
+    let stem = name.strip_suffix(".pbrt").unwrap_or(name);
+    if stem.is_empty() || stem == "-" {
+        "scene".to_string()
+    } else {
+        Path::new(stem).file_stem().map_or(stem.to_string(), |s| s.to_string_lossy().into_owned())
+    }
+}
+
+/// The text of a scene file: `-` is standard input, `.gz` is decompressed.
+pub(crate) fn read_scene_text(path: &Path, loc: &FileLoc) -> Result<String> {
+    use std::io::Read;
+    let shown = path.to_string_lossy().into_owned();
+    let io =
+        |source: std::io::Error| SceneError::File { loc: loc.clone(), path: shown.clone(), source };
+    let mut bytes = Vec::new();
+    if path == Path::new("-") {
+        std::io::stdin().read_to_end(&mut bytes).map_err(io)?;
+    } else {
+        bytes = std::fs::read(path).map_err(io)?;
+    }
+    if path.extension().is_some_and(|e| e == "gz") {
+        let mut text = Vec::new();
+        flate2::read::GzDecoder::new(bytes.as_slice()).read_to_end(&mut text).map_err(io)?;
+        bytes = text;
+    }
+    String::from_utf8(bytes).map_err(|e| {
+        io(std::io::Error::new(std::io::ErrorKind::InvalidData, format!("not UTF-8 text: {e}")))
+    })
 }
 
 /// Parses scene text; `file_name` is used in locations and for the scene's
-/// name, `base_dir` resolves relative paths.
+/// name, `base_dir` resolves relative paths. The first scene it describes.
 pub fn parse_str(
     source: &str,
     file_name: &str,
     base_dir: &Path,
 ) -> Result<(SceneDescription, Vec<Warning>)> {
-    let name = Path::new(file_name)
-        .file_stem()
-        .map(|s| s.to_string_lossy().into_owned())
-        .unwrap_or_default();
-    parse(source, file_name, base_dir, &name)
-}
-
-fn parse(
-    text: &str,
-    file: &str,
-    dir: &Path,
-    name: &str,
-) -> Result<(SceneDescription, Vec<Warning>)> {
-    let mut p = parser::Parser::new(name);
-    let base = if dir.as_os_str().is_empty() { Path::new(".") } else { dir };
+    let mut p = parser::Parser::new(&scene_name(Path::new(file_name)));
+    let base = if base_dir.as_os_str().is_empty() { Path::new(".") } else { base_dir };
     p.builder.root = std::fs::canonicalize(base).unwrap_or_else(|_| base.to_path_buf());
-    p.builder.search_dir = dir.to_path_buf();
-    p.parse_text(text, file, dir)?;
-    Ok(p.builder.finish(&p.end))
+    p.builder.search_dir = base_dir.to_path_buf();
+    p.parse_text(source, file_name, base_dir)?;
+    let mut scenes = std::mem::take(&mut p.finished);
+    if p.started || scenes.is_empty() {
+        let end = std::mem::take(&mut p.end);
+        scenes.push(p.builder.finish(&end));
+    }
+    let (scene, mut warnings) = scenes.remove(0);
+    if !scenes.is_empty() {
+        let loc = FileLoc { file: file_name.to_string(), line: 1, column: 1 };
+        warnings.push(Warning::at(
+            &loc,
+            format!("the text describes {} scenes; only the first is used here", scenes.len() + 1),
+        ));
+    }
+    Ok((scene, warnings))
 }

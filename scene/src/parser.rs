@@ -12,7 +12,7 @@ use super::tokenizer::{Token, TokenKind, Tokenizer};
 use super::transform;
 use super::values::{self, ParamType, ValueContext};
 use crate::error::{Result, SceneError};
-use farm_common::scene::{Entity, FileLoc, Param, ParamSet};
+use farm_common::scene::{Entity, FileLoc, Param, ParamSet, SceneDescription, Warning};
 use glam::DVec3;
 use std::path::Path;
 
@@ -26,7 +26,11 @@ pub struct Parser {
     nums: Vec<f64>,
     strs: Vec<String>,
     depth: usize,
-    warned_after_end: bool,
+    /// Whether a directive has been read since the last scene ended.
+    pub started: bool,
+    /// Scenes finished by a `WorldEnd`: as in pbrt-v3, the input may go on
+    /// to describe another scene, from fresh options.
+    pub finished: Vec<(SceneDescription, Vec<Warning>)>,
     /// The end of the main file, for end-of-scene warnings.
     pub end: FileLoc,
 }
@@ -39,7 +43,8 @@ impl Parser {
             nums: Vec::new(),
             strs: Vec::new(),
             depth: 0,
-            warned_after_end: false,
+            started: false,
+            finished: Vec::new(),
             end: FileLoc::default(),
         }
     }
@@ -49,10 +54,10 @@ impl Parser {
         let mut t = Tokenizer::new(text, file);
         loop {
             if self.builder.block == Block::Done {
-                self.skip_after_world_end(&mut t);
-                break;
+                self.next_scene();
             }
             let Some(tok) = t.next()? else { break };
+            self.started = true;
             if tok.kind != TokenKind::Bare {
                 return Err(SceneError::Syntax {
                     loc: t.loc(&tok),
@@ -66,18 +71,15 @@ impl Parser {
         Ok(())
     }
 
-    fn skip_after_world_end(&mut self, t: &mut Tokenizer<'_>) {
-        let rest = t.next();
-        if self.warned_after_end || matches!(rest, Ok(None)) {
-            return;
-        }
-        self.warned_after_end = true;
-        let loc = match &rest {
-            Ok(Some(tok)) => t.loc(tok),
-            Err(e) => e.loc().clone(),
-            Ok(None) => t.end_loc(),
-        };
-        self.builder.warn(&loc, "Ignoring everything after WorldEnd");
+    /// Finishes the scene a `WorldEnd` closed and starts the next from
+    /// pbrt-v3's defaults (the files it reads still resolve as before).
+    fn next_scene(&mut self) {
+        let mut fresh = Builder::new(&self.builder.scene.name);
+        fresh.root.clone_from(&self.builder.root);
+        fresh.search_dir.clone_from(&self.builder.search_dir);
+        let done = std::mem::replace(&mut self.builder, fresh);
+        self.finished.push(done.finish(&FileLoc::default()));
+        self.started = false;
     }
 
     fn directive<'a>(&mut self, t: &mut Tokenizer<'a>, tok: Token<'a>, dir: &Path) -> Result<()> {
@@ -284,11 +286,7 @@ impl Parser {
                 expected: "Includes without cycles".into(),
             });
         }
-        let text = std::fs::read_to_string(&path).map_err(|source| SceneError::File {
-            loc: loc.clone(),
-            path: file.clone(),
-            source,
-        })?;
+        let text = crate::read_scene_text(&path, loc)?;
         let sub_dir = path.parent().map(Path::to_path_buf).unwrap_or_default();
         self.depth += 1;
         let end = std::mem::take(&mut self.end);

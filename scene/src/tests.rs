@@ -253,3 +253,36 @@ fn files_resolve_against_the_main_directory_then_the_including_one() {
     );
     std::fs::remove_dir_all(dir).ok();
 }
+
+/// pbrt-v3's command line: files read as one stream, a scene ending at
+/// each WorldEnd; options in one file and the world in another make one
+/// scene; `.pbrt.gz` is read as pbrt-v4 reads it.
+#[test]
+fn several_files_are_one_stream_of_scenes() {
+    use std::io::Write;
+    let dir = temp_dir("stream");
+    let two = "Film \"image\" \"integer xresolution\" [ 8 ]\nWorldBegin\nShape \"sphere\"\nWorldEnd\n\
+               Film \"image\" \"integer xresolution\" [ 9 ]\nWorldBegin\nShape \"disk\"\nShape \"disk\"\nWorldEnd\n";
+    std::fs::write(dir.join("two.pbrt"), two).unwrap();
+    std::fs::write(dir.join("options.pbrt"), "Film \"image\" \"integer xresolution\" [ 7 ]\n")
+        .unwrap();
+    let mut gz = flate2::write::GzEncoder::new(Vec::new(), flate2::Compression::default());
+    gz.write_all(b"WorldBegin\nShape \"sphere\"\nWorldEnd\n").unwrap();
+    std::fs::write(dir.join("world.pbrt.gz"), gz.finish().unwrap()).unwrap();
+
+    let scenes = crate::parse_files(&[dir.join("two.pbrt")]).unwrap();
+    let res = |s: &SceneDescription| Params::new(&s.film.params).int("xresolution", 0);
+    let got: Vec<(i32, usize)> = scenes.iter().map(|(s, _)| (res(s), s.shapes.len())).collect();
+    assert_eq!(got, [(8, 1), (9, 2)]);
+    assert!(scenes.iter().all(|(_, w)| w.is_empty()), "{scenes:?}");
+
+    let scenes =
+        crate::parse_files(&[dir.join("options.pbrt"), dir.join("world.pbrt.gz")]).unwrap();
+    assert_eq!(scenes.len(), 1);
+    assert_eq!((res(&scenes[0].0), scenes[0].0.shapes.len()), (7, 1));
+    assert_eq!(scenes[0].0.name, "options");
+    std::fs::write(dir.join("bad.pbrt.gz"), b"not gzip").unwrap();
+    let e = crate::parse_files(&[dir.join("bad.pbrt.gz")]).unwrap_err().to_string();
+    assert!(e.contains("bad.pbrt.gz"), "{e}");
+    std::fs::remove_dir_all(dir).ok();
+}

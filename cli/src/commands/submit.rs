@@ -9,8 +9,11 @@ use std::process::ExitCode;
 /// Arguments of `farm submit`.
 #[derive(Debug, clap::Args)]
 pub struct SubmitArgs {
-    /// The pbrt-v3 scene file.
-    pub scene: PathBuf,
+    /// The pbrt-v3 scene files, read as pbrt-v3 reads them: one stream,
+    /// each WorldEnd rendering a scene (`-` is standard input; `.pbrt.gz`
+    /// is read compressed).
+    #[arg(required = true, num_args = 1..)]
+    pub scenes: Vec<PathBuf>,
     /// Output image (.exr, .pfm or .png); default: the scene's Film filename.
     #[arg(short, long, visible_alias = "outfile")]
     pub output: Option<PathBuf>,
@@ -70,16 +73,46 @@ pub struct SubmitArgs {
     pub limits: super::LimitArgs,
 }
 
-/// Renders where the arguments say.
+/// Renders where the arguments say: each scene the files describe, in turn.
 pub fn run(args: SubmitArgs) -> ExitCode {
-    if args.coordinator.is_some() {
-        crate::runtime::block_on(run_remote(args))
-    } else {
-        run_embedded(args)
+    let start = std::time::Instant::now();
+    let scenes = match farm_scene::parse_files(&args.scenes) {
+        Ok(s) => s,
+        Err(e) => return fail(&e.into()),
+    };
+    if scenes.len() > 1 && args.output.is_some() {
+        eprintln!(
+            "error: --output names one image but the files describe {} scenes; without it each scene's Film filename is used",
+            scenes.len()
+        );
+        return ExitCode::from(crate::EXIT_BAD_INPUT);
     }
+    let first = args.scenes[0].clone();
+    for (desc, warnings) in scenes {
+        let scene = Parsed { file: first.clone(), desc, warnings, start };
+        let code = if args.coordinator.is_some() {
+            crate::runtime::block_on(run_remote(&args, scene))
+        } else {
+            run_embedded(&args, scene)
+        };
+        if code != ExitCode::SUCCESS {
+            return code;
+        }
+    }
+    ExitCode::SUCCESS
 }
 
-async fn run_remote(args: SubmitArgs) -> ExitCode {
+/// One scene the command line's files describe.
+struct Parsed {
+    /// The first file (the job's name; its folder bounds the assets sent).
+    file: PathBuf,
+    desc: farm_common::scene::SceneDescription,
+    warnings: Vec<farm_common::scene::Warning>,
+    /// When parsing began.
+    start: std::time::Instant,
+}
+
+async fn run_remote(args: &SubmitArgs, scene: Parsed) -> ExitCode {
     let token = match args.token.token() {
         Ok(t) => t,
         Err(e) => return fail(&e),
@@ -92,10 +125,12 @@ async fn run_remote(args: SubmitArgs) -> ExitCode {
         allow_assets_outside: args.allow_assets_outside,
         detach: args.detach,
         reconnect_for: reconnect_for(args.reconnect_for),
-        overrides: overrides(&args),
+        overrides: overrides(args),
     };
     if args.detach {
-        return match crate::client::start(&remote, &args.scene, &opts).await {
+        let Parsed { file, desc, warnings, start } = scene;
+        return match crate::client::start_parsed(&remote, &file, desc, warnings, start, &opts).await
+        {
             Ok(s) => {
                 if !args.quiet {
                     for w in &s.warnings {
@@ -115,12 +150,15 @@ async fn run_remote(args: SubmitArgs) -> ExitCode {
         };
     }
     let bar = crate::progress::progress_bar(args.quiet);
+    let Parsed { file, desc, warnings, start } = scene;
     let result =
-        crate::client::submit(&remote, &args.scene, &opts, |job, p| show_progress(&bar, job, p))
-            .await;
+        crate::client::submit_parsed(&remote, &file, desc, warnings, start, &opts, |job, p| {
+            show_progress(&bar, job, p)
+        })
+        .await;
     bar.finish_and_clear();
     match result {
-        Ok(summary) => finish(&args, summary),
+        Ok(summary) => finish(args, summary),
         Err(e) => fail(&e),
     }
 }
@@ -133,18 +171,18 @@ fn overrides(args: &SubmitArgs) -> farm_scene::Overrides {
     }
 }
 
-fn run_embedded(args: SubmitArgs) -> ExitCode {
+fn run_embedded(args: &SubmitArgs, scene: Parsed) -> ExitCode {
     let opts = SubmitOptions {
         output: args.output.clone(),
         spp: args.spp,
         threads: args.threads,
         all_paths: false,
         limits: (&args.limits).into(),
-        overrides: overrides(&args),
+        overrides: overrides(args),
     };
     let bar = crate::progress::progress_bar(args.quiet);
     let started = std::time::Instant::now();
-    let result = embedded::render(&args.scene, &opts, |p| {
+    let result = embedded::render_parsed(scene.desc, scene.warnings, scene.start, &opts, |p| {
         if bar.length().is_none() {
             bar.set_length(p.tiles_total as u64);
         }
@@ -154,7 +192,7 @@ fn run_embedded(args: SubmitArgs) -> ExitCode {
     });
     bar.finish_and_clear();
     match result {
-        Ok(summary) => finish(&args, summary),
+        Ok(summary) => finish(args, summary),
         Err(e) => fail(&e),
     }
 }
