@@ -92,3 +92,29 @@ fn several_files_stdin_and_gzip_are_read_as_pbrt_reads_them() {
 fn flate2_writer() -> flate2::write::GzEncoder<Vec<u8>> {
     flate2::write::GzEncoder::new(Vec::new(), flate2::Compression::default())
 }
+
+/// `--cat` prints the scene as pbrt-v3 text that reads back to itself:
+/// the text of the text is the text (tests/tests/cat.rs checks the
+/// descriptions on every project and shared scene).
+#[test]
+fn cat_prints_a_scene_that_reads_back_to_itself() {
+    use std::io::Write;
+    let out = farm().args(["submit", "--cat"]).arg(scene()).output().unwrap();
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let text = String::from_utf8(out.stdout).unwrap();
+    assert!(text.contains("WorldBegin") && text.contains("Shape \"sphere\""), "{text}");
+    let mut child = farm()
+        .current_dir(scene().parent().unwrap())
+        .args(["submit", "--cat", "-"])
+        .stdin(std::process::Stdio::piped())
+        .stdout(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    child.stdin.take().unwrap().write_all(text.as_bytes()).unwrap();
+    let again = child.wait_with_output().unwrap();
+    let again = String::from_utf8(again.stdout).unwrap();
+    // Only the scene's name and the camera's matrix (inverted twice, to
+    // the last bit and the sign of zero) may differ.
+    let body = |t: &str| t.lines().skip(2).collect::<Vec<_>>().join("\n");
+    assert_eq!(body(&text), body(&again));
+}

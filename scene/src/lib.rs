@@ -21,6 +21,7 @@ pub mod tokenizer;
 pub mod transform;
 pub mod values;
 mod world;
+mod write;
 
 #[cfg(test)]
 mod directive_tests;
@@ -32,6 +33,7 @@ pub use error::{Result, SceneError};
 use farm_common::scene::{FileLoc, SceneDescription, Warning};
 pub use overrides::Overrides;
 use std::path::Path;
+pub use write::{write_scene, Meshes};
 
 /// Parses a scene file and the files it includes: the first scene it
 /// describes (see [`parse_files`] for inputs that describe several).

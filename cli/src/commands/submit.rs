@@ -28,6 +28,14 @@ pub struct SubmitArgs {
     /// pixels are bit-identical to the same pixels of the whole render.
     #[arg(long, num_args = 4, value_names = ["X0", "X1", "Y0", "Y1"])]
     pub cropwindow: Option<Vec<f32>>,
+    /// Print the scene as pbrt-v3 text (Includes inlined, every transform
+    /// as the matrix it composed to) instead of rendering it (pbrt-v3's --cat).
+    #[arg(long)]
+    pub cat: bool,
+    /// As --cat, with every triangle mesh written to mesh_NNNNN.ply in the
+    /// current directory (pbrt-v3's --toply).
+    #[arg(long, conflicts_with = "cat")]
+    pub toply: bool,
     /// A quick look: a quarter of the resolution each way and one sample
     /// per pixel (pbrt-v3's --quick; the random sampler keeps its count).
     #[arg(long)]
@@ -87,6 +95,9 @@ pub fn run(args: SubmitArgs) -> ExitCode {
         );
         return ExitCode::from(crate::EXIT_BAD_INPUT);
     }
+    if args.cat || args.toply {
+        return print_scenes(&args, &scenes);
+    }
     let first = args.scenes[0].clone();
     for (desc, warnings) in scenes {
         let scene = Parsed { file: first.clone(), desc, warnings, start };
@@ -97,6 +108,35 @@ pub fn run(args: SubmitArgs) -> ExitCode {
         };
         if code != ExitCode::SUCCESS {
             return code;
+        }
+    }
+    ExitCode::SUCCESS
+}
+
+/// `--cat` and `--toply`: the scenes as text on standard output.
+fn print_scenes(
+    args: &SubmitArgs,
+    scenes: &[(farm_common::scene::SceneDescription, Vec<farm_common::scene::Warning>)],
+) -> ExitCode {
+    let here = std::path::Path::new(".");
+    for (i, (desc, warnings)) in scenes.iter().enumerate() {
+        if !args.quiet {
+            for w in warnings {
+                eprintln!("{w}");
+            }
+        }
+        let prefix = if i == 0 { "mesh".to_string() } else { format!("scene{}_mesh", i + 1) };
+        let meshes = if args.toply {
+            farm_scene::Meshes::Ply { dir: here, prefix: &prefix }
+        } else {
+            farm_scene::Meshes::Inline
+        };
+        match farm_scene::write_scene(desc, meshes) {
+            Ok(text) => say!("{text}"),
+            Err(e) => {
+                eprintln!("error: writing meshes: {e}");
+                return ExitCode::FAILURE;
+            }
         }
     }
     ExitCode::SUCCESS
