@@ -29,7 +29,7 @@ pub struct World {
     /// Materials, indexed by `Primitive::material`.
     pub materials: Vec<Material>,
     /// Textures the materials refer to.
-    pub textures: TextureSet,
+    pub textures: Arc<TextureSet>,
     /// Render-space bounds of everything.
     pub bounds: Bounds3f,
     /// Render-from-world: a translation by minus the camera position.
@@ -45,7 +45,7 @@ impl World {
     ) -> Result<World, BuildError> {
         let rfw = Transform::from_dmat4(render_from_world);
         let max_prims = crate::accel::max_prims_in_node(&desc.accelerator, warnings);
-        let textures = textures::build(&desc.textures, &rfw, &desc.assets, warnings);
+        let textures = Arc::new(textures::build(&desc.textures, &rfw, &desc.assets, warnings));
         let materials = materials::build(&desc.materials, &textures, warnings);
         let mut lights = Vec::new();
         for l in &desc.lights {
@@ -74,10 +74,10 @@ impl World {
         for s in &desc.shapes {
             if s.world_from_object.is_static() {
                 let xf = Transform::from_dmat4(render_from_world * s.world_from_object.start);
-                add_shape(s, &xf, Some(&mut lights), &mut prims, warnings);
+                add_shape(s, &xf, &textures, Some(&mut lights), &mut prims, warnings);
             } else {
                 let mut local = Vec::new();
-                add_shape(s, &Transform::default(), None, &mut local, warnings);
+                add_shape(s, &Transform::default(), &textures, None, &mut local, warnings);
                 if s.area_light.is_some() {
                     warnings.push(Warning::at(
                         &s.entity.loc,
@@ -112,7 +112,7 @@ impl World {
                             ));
                         }
                         let xf = Transform::from_dmat4(s.world_from_object.start);
-                        add_shape(s, &xf, None, &mut local, warnings);
+                        add_shape(s, &xf, &textures, None, &mut local, warnings);
                     }
                     Arc::new(Aggregate::new(local, max_prims))
                 })
@@ -192,17 +192,19 @@ fn placement(x: &AnimatedXform, render_from_world: DMat4) -> Placement {
 fn add_shape(
     s: &ShapeEntity,
     render_from_object: &Transform,
+    textures: &Arc<TextureSet>,
     lights: Option<&mut Vec<Light>>,
     prims: &mut Vec<Primitive>,
     warnings: &mut Vec<Warning>,
 ) {
     let params = Params::new(&s.entity.params);
     let first = warnings.len();
-    let shapes: Vec<Shape> = shapes::create(
+    let shapes: Vec<Shape> = shapes::create_in(
         &s.entity.name,
         &params,
         render_from_object,
         s.reverse_orientation,
+        Some(textures),
         warnings,
     );
     // The shape's warnings point at its directive.

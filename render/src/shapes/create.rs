@@ -2,8 +2,10 @@
 //! `api.cpp` `MakeShapes`); each shape's constructor sits in its own file.
 
 use super::{Cone, Cylinder, Disk, Hyperboloid, Paraboloid, Placement, Shape, Sphere};
+use crate::textures::TextureSet;
 use farm_common::geometry::Transform;
 use farm_common::scene::{Params, Warning};
+use std::sync::Arc;
 
 /// The shapes for one `Shape` directive (`"plymesh"` arrives as `"trianglemesh"`).
 /// Problems become warnings (with no location: the caller knows the
@@ -13,6 +15,18 @@ pub fn create(
     params: &Params,
     render_from_object: &Transform,
     reverse_orientation: bool,
+    warnings: &mut Vec<Warning>,
+) -> Vec<Shape> {
+    create_in(name, params, render_from_object, reverse_orientation, None, warnings)
+}
+
+/// [`create`], with the scene's textures for meshes' textured alpha masks.
+pub fn create_in(
+    name: &str,
+    params: &Params,
+    render_from_object: &Transform,
+    reverse_orientation: bool,
+    textures: Option<&Arc<TextureSet>>,
     warnings: &mut Vec<Warning>,
 ) -> Vec<Shape> {
     let pl = Placement::new(render_from_object, reverse_orientation);
@@ -26,7 +40,7 @@ pub fn create(
             .map(|h| Shape::Hyperboloid(Box::new(h)))
             .into_iter()
             .collect(),
-        "trianglemesh" => super::mesh::triangle_mesh(params, &pl, warnings),
+        "trianglemesh" => super::mesh::triangle_mesh(params, &pl, textures, warnings),
         "loopsubdiv" => super::loopsubdiv::create(params, &pl, warnings),
         "heightfield" => super::heightfield::create(params, &pl, warnings),
         "curve" => super::curve_segments::create(params, &pl, warnings),

@@ -3,8 +3,9 @@
 //! (`CreateTriangleMeshShape`), and moving any mesh's object-space data to
 //! render space as one shape per triangle.
 
-use super::triangle::{AlphaMask, Triangle, TriangleMesh};
+use super::triangle::{AlphaMask, AlphaTexture, Triangle, TriangleMesh};
 use super::{Placement, Shape};
+use crate::textures::TextureSet;
 use farm_common::geometry::{Vec2, Vec3};
 use farm_common::scene::{Params, Warning};
 use std::sync::Arc;
@@ -15,10 +16,18 @@ pub(super) fn warn(w: &mut Vec<Warning>, message: String) {
 }
 
 /// Reads `alpha`/`shadowalpha` as pbrt-v3 does: a float texture, else a float that is 0.
-pub(super) fn alpha_param(params: &Params, name: &str, warnings: &mut Vec<Warning>) -> AlphaMask {
+pub(super) fn alpha_param(
+    params: &Params,
+    name: &str,
+    textures: Option<&Arc<TextureSet>>,
+    warnings: &mut Vec<Warning>,
+) -> AlphaMask {
     if let Some(t) = params.texture(name) {
-        if t.float_id.is_some() {
-            return AlphaMask::Texture(t.clone());
+        match (t.float_id, textures) {
+            (Some(id), Some(set)) if matches!(set.floats.get(id as usize), Some(Some(_))) => {
+                return AlphaMask::Texture(AlphaTexture { textures: set.clone(), id });
+            }
+            _ => {}
         }
         warn(
             warnings,
@@ -116,6 +125,7 @@ pub(super) fn build_mesh(
 pub(super) fn triangle_mesh(
     params: &Params,
     pl: &Placement,
+    textures: Option<&Arc<TextureSet>>,
     warnings: &mut Vec<Warning>,
 ) -> Vec<Shape> {
     let vi = params.ints("indices");
@@ -134,8 +144,8 @@ pub(super) fn triangle_mesh(
     // pbrt-v3 keeps per-face indices for Ptex lookups; without Ptex they
     // change nothing.
     params.touch("faceIndices");
-    let alpha = alpha_param(params, "alpha", warnings);
-    let shadow_alpha = alpha_param(params, "shadowalpha", warnings);
+    let alpha = alpha_param(params, "alpha", textures, warnings);
+    let shadow_alpha = alpha_param(params, "shadowalpha", textures, warnings);
     let Some(p) = p else {
         warn(warnings, "Vertex positions \"P\" not provided with triangle mesh shape".into());
         return vec![];

@@ -18,7 +18,7 @@ mod sphere;
 mod triangle;
 
 pub use cone::Cone;
-pub use create::create;
+pub use create::{create, create_in};
 pub use curve::{Curve, CurveCommon, CurveType};
 pub use cylinder::Cylinder;
 pub use disk::Disk;
@@ -27,7 +27,7 @@ pub use hyperboloid::Hyperboloid;
 pub use loopsubdiv::loop_subdivide;
 pub use paraboloid::Paraboloid;
 pub use sphere::Sphere;
-pub use triangle::{AlphaMask, Triangle, TriangleMesh};
+pub use triangle::{AlphaMask, AlphaTexture, Triangle, TriangleMesh};
 
 use crate::interaction::{Interaction, SurfaceInteraction};
 use farm_common::geometry::{Bounds3f, Ray, Vec2, Vec3};

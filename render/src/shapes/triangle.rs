@@ -5,8 +5,8 @@
 
 use crate::interaction::{Interaction, Shading, SurfaceInteraction};
 use crate::sampling::uniform_sample_triangle;
+use crate::textures::{TexInput, TextureSet};
 use farm_common::geometry::{coordinate_system, face_forward, gamma, Bounds3f, Ray, Vec2, Vec3};
-use farm_common::scene::TextureRef;
 use std::sync::Arc;
 
 /// An alpha mask on a mesh (`"float alpha"`, `"texture alpha"` and their `shadowalpha` twins).
@@ -17,9 +17,30 @@ pub enum AlphaMask {
     None,
     /// `"float alpha" 0`: every hit is cut away.
     Zero,
-    /// A float texture; hits where it evaluates to 0 are cut away by the
-    /// primitive layer, which can evaluate textures.
-    Texture(TextureRef),
+    /// A float texture: hits where it is 0 are cut away (pbrt-v3 evaluates
+    /// it at the hit's point and uv, with no differentials).
+    Texture(AlphaTexture),
+}
+
+/// The float texture of a textured alpha mask, among the scene's textures.
+#[derive(Clone)]
+pub struct AlphaTexture {
+    /// The scene's textures.
+    pub textures: Arc<TextureSet>,
+    /// The mask's index among the float textures.
+    pub id: u32,
+}
+
+impl PartialEq for AlphaTexture {
+    fn eq(&self, other: &Self) -> bool {
+        self.id == other.id && Arc::ptr_eq(&self.textures, &other.textures)
+    }
+}
+
+impl std::fmt::Debug for AlphaTexture {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "AlphaTexture({})", self.id)
+    }
 }
 
 /// The shared data of a mesh, already in render space.
@@ -173,10 +194,24 @@ impl Triangle {
     #[inline]
     pub fn hit_barycentrics(&self, ray: &Ray, test_alpha: bool) -> Option<(f32, [f32; 3])> {
         let h = self.raw_hit(ray)?;
-        if test_alpha && self.mesh.alpha == AlphaMask::Zero {
+        if test_alpha && self.cuts(&self.mesh.alpha, ray, h.b) {
             return None;
         }
         Some((h.t, h.b))
+    }
+
+    /// Whether `mask` cuts away the hit at barycentrics `b` (pbrt-v3
+    /// `Triangle::Intersect`'s alpha test).
+    #[inline]
+    fn cuts(&self, mask: &AlphaMask, ray: &Ray, b: [f32; 3]) -> bool {
+        match mask {
+            AlphaMask::None => false,
+            AlphaMask::Zero => true,
+            AlphaMask::Texture(t) => {
+                let si = self.interaction(ray, b);
+                t.textures.eval(&TexInput::<f32>::Texture(t.id), &si) == 0.0
+            }
+        }
     }
 
     /// The surface interaction at barycentrics `b` of a hit by `ray`.
@@ -297,10 +332,9 @@ impl Triangle {
 
     /// Whether the ray hits (shadow rays: both alpha masks apply).
     pub fn intersect_p(&self, ray: &Ray) -> bool {
-        if self.raw_hit(ray).is_none() {
-            return false;
-        }
-        !(self.mesh.alpha == AlphaMask::Zero || self.mesh.shadow_alpha == AlphaMask::Zero)
+        let Some(h) = self.raw_hit(ray) else { return false };
+        let m = &*self.mesh;
+        !(self.cuts(&m.alpha, ray, h.b) || self.cuts(&m.shadow_alpha, ray, h.b))
     }
 
     /// Area.
