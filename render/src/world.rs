@@ -47,6 +47,7 @@ impl World {
         let max_prims = crate::accel::max_prims_in_node(&desc.accelerator, warnings);
         let textures = Arc::new(textures::build(&desc.textures, &rfw, &desc.assets, warnings));
         let materials = materials::build(&desc.materials, &textures, warnings);
+        let mut cx = ShapeCx { desc, textures: &textures, materials };
         let mut lights = Vec::new();
         for l in &desc.lights {
             if !l.world_from_light.is_static() {
@@ -74,10 +75,10 @@ impl World {
         for s in &desc.shapes {
             if s.world_from_object.is_static() {
                 let xf = Transform::from_dmat4(render_from_world * s.world_from_object.start);
-                add_shape(s, &xf, &textures, Some(&mut lights), &mut prims, warnings);
+                add_shape(s, &xf, &mut cx, Some(&mut lights), &mut prims, warnings);
             } else {
                 let mut local = Vec::new();
-                add_shape(s, &Transform::default(), &textures, None, &mut local, warnings);
+                add_shape(s, &Transform::default(), &mut cx, None, &mut local, warnings);
                 if s.area_light.is_some() {
                     warnings.push(Warning::at(
                         &s.entity.loc,
@@ -112,7 +113,7 @@ impl World {
                             ));
                         }
                         let xf = Transform::from_dmat4(s.world_from_object.start);
-                        add_shape(s, &xf, &textures, None, &mut local, warnings);
+                        add_shape(s, &xf, &mut cx, None, &mut local, warnings);
                     }
                     Arc::new(Aggregate::new(local, max_prims))
                 })
@@ -135,6 +136,7 @@ impl World {
         for l in &mut lights {
             l.preprocess(center, radius);
         }
+        let materials = cx.materials;
         Ok(World {
             aggregate,
             instances,
@@ -189,10 +191,58 @@ fn placement(x: &AnimatedXform, render_from_world: DMat4) -> Placement {
 
 /// Creates the shapes of one entity as primitives; with `lights`, shapes under
 /// an `AreaLightSource` each get a diffuse area light, as in pbrt-v3.
+/// What shapes are built with: the textures their alpha masks read, and
+/// the materials, to which a shape that sets material parameters adds its
+/// own.
+struct ShapeCx<'a> {
+    desc: &'a SceneDescription,
+    textures: &'a Arc<TextureSet>,
+    materials: Vec<Material>,
+}
+
+impl ShapeCx<'_> {
+    /// The material index of shape `s`: its material's, or, when the shape
+    /// sets material parameters, a new material built from the material's
+    /// parameters overlaid with the shape's, as pbrt-v3 does. The shape's
+    /// parameters the material reads count as used.
+    fn material_for(
+        &mut self,
+        s: &ShapeEntity,
+        shape_params: &Params,
+        warnings: &mut Vec<Warning>,
+    ) -> Option<u32> {
+        let m = s.material?;
+        let base = self.desc.materials.get(m as usize)?;
+        if !materials::shape_may_set_material(&s.entity.params) {
+            return Some(m);
+        }
+        let mut merged = base.entity.params.clone();
+        for p in &s.entity.params.params {
+            merged.add(p.clone());
+        }
+        let p = Params::new(&merged);
+        let mut w = Vec::new();
+        let material = materials::derive(base, m as usize, &p, self.textures, &mut w);
+        // The material's own warnings were given when it was built; keep
+        // those about the shape's parameters.
+        let at_shape = |w: &Warning| {
+            w.loc.as_ref().is_some_and(|l| s.entity.params.params.iter().any(|q| q.loc == *l))
+        };
+        warnings.extend(w.into_iter().filter(at_shape));
+        for q in &s.entity.params.params {
+            if p.was_used(&q.name, q.value.type_name()) {
+                shape_params.touch(&q.name);
+            }
+        }
+        self.materials.push(material);
+        Some(self.materials.len() as u32 - 1)
+    }
+}
+
 fn add_shape(
     s: &ShapeEntity,
     render_from_object: &Transform,
-    textures: &Arc<TextureSet>,
+    cx: &mut ShapeCx,
     lights: Option<&mut Vec<Light>>,
     prims: &mut Vec<Primitive>,
     warnings: &mut Vec<Warning>,
@@ -204,9 +254,10 @@ fn add_shape(
         &params,
         render_from_object,
         s.reverse_orientation,
-        Some(textures),
+        Some(cx.textures),
         warnings,
     );
+    let material = cx.material_for(s, &params, warnings);
     // The shape's warnings point at its directive.
     for w in &mut warnings[first..] {
         if w.loc.is_none() {
@@ -243,12 +294,12 @@ fn add_shape(
                     shape: shape.clone(),
                     two_sided,
                 }));
-                prims.push(Primitive { shape, material: s.material, area_light: Some(id) });
+                prims.push(Primitive { shape, material, area_light: Some(id) });
             }
         }
         None => prims.extend(shapes.into_iter().map(|shape| Primitive {
             shape,
-            material: s.material,
+            material,
             area_light: None,
         })),
     }

@@ -253,6 +253,16 @@ impl<'a> Params<'a> {
         let _ = self.find(name, |_| true);
     }
 
+    /// Whether a parameter of that name and type (as written in a scene
+    /// file) has been looked up.
+    pub fn was_used(&self, name: &str, type_name: &str) -> bool {
+        self.set
+            .params
+            .iter()
+            .zip(&self.used)
+            .any(|(p, u)| u.get() && p.name == name && p.value.type_name() == type_name)
+    }
+
     /// pbrt-v3's `Parameter "name" not used` warning for each unread parameter.
     pub fn unused_warnings(&self) -> Vec<Warning> {
         self.set

@@ -8,7 +8,7 @@ use super::{
     Translucent, Uber,
 };
 use crate::textures::{Resolver, TexInput, TextureSet};
-use farm_common::scene::{FileLoc, MaterialEntity, Params, Warning};
+use farm_common::scene::{FileLoc, MaterialEntity, ParamSet, ParamValue, Params, Warning};
 use farm_common::Spectrum;
 
 /// What every material's constructor reads: its parameters, the textures
@@ -106,6 +106,33 @@ fn make(
             Material::Matte(Matte::create(m, w))
         }
     }
+}
+
+/// The material a shape gets when its own parameters may set the
+/// material's (pbrt-v3 `GraphicsState::GetMaterialForShape`): `base` built
+/// again from `p`, which holds the material's parameters overlaid with the
+/// shape's. Its warnings are the caller's to sort.
+pub fn derive(
+    base: &MaterialEntity,
+    index: usize,
+    p: &Params,
+    textures: &TextureSet,
+    warnings: &mut Vec<Warning>,
+) -> Material {
+    let r = Resolver { set: textures, limit: textures.floats.len().max(textures.spectra.len()) };
+    make(base, index, p, &r, warnings)
+}
+
+/// Whether a shape's parameters may set its material's (pbrt-v3
+/// `shapeMayHaveMaterialParameters`): a texture other than an alpha mask,
+/// a single float other than a radius, or any spectrum.
+pub fn shape_may_set_material(set: &ParamSet) -> bool {
+    set.params.iter().any(|p| match &p.value {
+        ParamValue::Texture(_) => p.name != "alpha" && p.name != "shadowalpha",
+        ParamValue::Float(v) => v.len() == 1 && p.name != "radius",
+        ParamValue::Spectrum(_) => true,
+        _ => false,
+    })
 }
 
 /// Builds every material, in order, reading textures from `textures`.

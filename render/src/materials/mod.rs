@@ -15,7 +15,7 @@ mod translucent;
 mod uber;
 
 pub use bump::bump;
-pub use create::build;
+pub use create::{build, derive, shape_may_set_material};
 pub use glass::Glass;
 pub use matte::Matte;
 pub use metal::Metal;
