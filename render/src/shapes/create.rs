@@ -43,6 +43,7 @@ pub fn create_in(
         "trianglemesh" => super::mesh::triangle_mesh(params, &pl, textures, warnings),
         "loopsubdiv" => super::loopsubdiv::create(params, &pl, warnings),
         "heightfield" => super::heightfield::create(params, &pl, warnings),
+        "nurbs" => super::nurbs::create(params, &pl, warnings),
         "curve" => super::curve_segments::create(params, &pl, warnings),
         _ => {
             super::mesh::warn(warnings, format!("Shape \"{name}\" unknown."));

@@ -13,6 +13,7 @@ mod heightfield;
 mod hyperboloid;
 mod loopsubdiv;
 mod mesh;
+mod nurbs;
 mod paraboloid;
 mod sphere;
 mod triangle;

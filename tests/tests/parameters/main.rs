@@ -43,7 +43,6 @@ const MISSING: &[(&str, &str)] = &[
     ("CreateDisneyMaterial", "not built yet"),
     ("CreateHairMaterial", "not built yet"),
     ("CreateFourierMaterial", "not built yet"),
-    ("CreateNURBS", "not built yet"),
 ];
 
 /// Names a constructor farm has reads in pbrt-v3 but not in farm, and why.
@@ -84,6 +83,10 @@ const EXPRESSION_DEFAULTS: &[(&str, &str, &str)] = &[
         "sigma_s",
         "measured skim milk, for the BSSRDF, which Whitted ignores",
     ),
+    ("CreateNURBS", "u0", "the first knot of the u range, uknots[uorder - 1]"),
+    ("CreateNURBS", "u1", "the last knot of the u range, uknots[nu]"),
+    ("CreateNURBS", "v0", "the first knot of the v range, vknots[vorder - 1]"),
+    ("CreateNURBS", "v1", "the last knot of the v range, vknots[nv]"),
     ("CreateSphereShape", "zmin", "-radius"),
     ("CreateSphereShape", "zmax", "radius"),
 ];

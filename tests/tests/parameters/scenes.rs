@@ -128,6 +128,16 @@ pub(crate) fn special(function: &str, name: &str) -> Option<&'static str> {
         "P" if function == "CreateLoopSubdiv" => r#""point3 P" [0 0 0 1 0 0 1 1 0 0 1 0]"#,
         "P" if function == "CreateCurveShape" => r#""point3 P" [0 0 0 1 0 0 1 1 0 0 1 0]"#,
         "Pz" => r#""float Pz" [0 1 1 0]"#,
+        "nu" | "nv" | "uorder" | "vorder" if function == "CreateNURBS" => match name {
+            "nu" => r#""integer nu" [2]"#,
+            "nv" => r#""integer nv" [2]"#,
+            "uorder" => r#""integer uorder" [2]"#,
+            _ => r#""integer vorder" [2]"#,
+        },
+        "uknots" => r#""float uknots" [0 0 1 1]"#,
+        "vknots" => r#""float vknots" [0 0 1 1]"#,
+        "P" if function == "CreateNURBS" => r#""point3 P" [0 0 0 1 0 0 0 1 0 1 1 0]"#,
+        "Pw" => r#""float Pw" [0 0 0 1 1 0 0 1 0 1 0 1 1 1 0 1]"#,
         "nu" if function == "CreateHeightfield" => r#""integer nu" [2]"#,
         "nv" if function == "CreateHeightfield" => r#""integer nv" [2]"#,
         "N" if function == "CreateCurveShape" => r#""normal N" [0 0 1 0 0 1]"#,
@@ -253,6 +263,11 @@ pub(crate) fn own_lookups(
 pub(crate) fn required(function: &str) -> &'static str {
     match function {
         "CreatePLYMesh" => r#""string filename" "quad.ply""#,
+        // Control points come as "P" or, without it, as "Pw".
+        "CreateNURBS" => {
+            r#""integer nu" [2] "integer nv" [2] "integer uorder" [2] "integer vorder" [2]
+               "float uknots" [0 0 1 1] "float vknots" [0 0 1 1]"#
+        }
         _ => "",
     }
 }
