@@ -9,6 +9,16 @@ pub enum BuildError {
     /// The camera transform cannot be inverted.
     #[error("the camera transform is singular")]
     SingularCamera,
+    /// The camera cannot be built (a realistic camera's lens, say).
+    #[error("{loc}: Camera \"{name}\": {why}")]
+    Camera {
+        /// Where the `Camera` directive is.
+        loc: farm_common::scene::FileLoc,
+        /// Its type.
+        name: String,
+        /// What is wrong.
+        why: String,
+    },
 }
 
 /// Result with a [`BuildError`].

@@ -103,7 +103,13 @@ impl Renderer {
         } else {
             desc.camera.entity.clone()
         };
-        let camera = cameras::create(&cam_entity, render_from_camera, &film, &mut warnings);
+        let camera =
+            cameras::create(&cam_entity, render_from_camera, &film, &desc.assets, &mut warnings)
+                .map_err(|why| BuildError::Camera {
+                    loc: cam_entity.loc.clone(),
+                    name: cam_entity.name.clone(),
+                    why,
+                })?;
 
         // The integrator: Whitted whatever the file asks for.
         let ip = Params::new(&desc.integrator.params);
@@ -135,7 +141,7 @@ impl Renderer {
         // with a lens; the sampler passes over the others.
         let camera_dims = CameraDims {
             time: features.moving > 0 || features.moving_camera || opts.all_paths,
-            lens: camera.lens_radius() > 0.0 || opts.all_paths,
+            lens: camera.uses_lens() || opts.all_paths,
         };
 
         // Filter values at the centres of a 16×16 grid over one quadrant.

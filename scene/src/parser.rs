@@ -237,7 +237,10 @@ impl Parser {
     ) -> Result<()> {
         match tok.text.as_ref() {
             "Camera" | "Sampler" | "Film" | "PixelFilter" | "Integrator" | "Accelerator" => {
-                let e = self.entity(t, loc, &tok.text, dir)?;
+                let mut e = self.entity(t, loc, &tok.text, dir)?;
+                if tok.text == "Camera" && e.name == "realistic" {
+                    self.builder.load_asset(&mut e, "lensfile", dir)?;
+                }
                 self.builder.option(&tok.text, e);
             }
             "Shape" => {

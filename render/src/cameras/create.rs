@@ -2,11 +2,15 @@
 //! table (pbrt-v3 `api.cpp` `MakeCamera`); each camera's constructor sits
 //! in its own file.
 
-use super::projective::common;
-use super::{Camera, EnvironmentCamera, OrthographicCamera, PerspectiveCamera};
+use super::projective::{common, shutter};
+use super::{
+    read_lens_file, Camera, EnvironmentCamera, OrthographicCamera, PerspectiveCamera,
+    RealisticCamera,
+};
 use farm_common::film::FilmGeometry;
 use farm_common::geometry::AnimatedTransform;
 use farm_common::scene::{Entity, Params, Warning};
+use std::collections::BTreeMap;
 
 /// The camera of a `Camera` directive placed by `render_from_camera`, for
 /// a film of `film.full_resolution` pixels. Unknown or unsupported camera
@@ -16,8 +20,9 @@ pub fn create(
     entity: &Entity,
     render_from_camera: AnimatedTransform,
     film: &FilmGeometry,
+    assets: &BTreeMap<String, Vec<u8>>,
     warnings: &mut Vec<Warning>,
-) -> Camera {
+) -> Result<Camera, String> {
     let p = Params::new(&entity.params);
     if render_from_camera.has_scale() {
         warnings.push(Warning::at(
@@ -31,16 +36,21 @@ pub fn create(
     }
     let name = entity.name.as_str();
     match name {
-        "perspective" | "orthographic" | "environment" => {}
-        "realistic" => warnings.push(Warning::at(
-            &entity.loc,
-            format!("Camera \"{name}\" is not supported; using \"perspective\"."),
-        )),
+        "perspective" | "orthographic" | "environment" | "realistic" => {}
         _ => warnings.push(Warning::at(&entity.loc, format!("Camera \"{name}\" unknown."))),
     }
     // pbrt-v3's environment camera reads a focal distance it never uses,
     // with its own default.
     let focal_default = if name == "environment" { 1e30 } else { 1e6 };
+    if name == "realistic" {
+        // pbrt-v3's realistic camera reads only its shutter besides its own.
+        let (open, close) = shutter(&p, entity, warnings);
+        let mut notes = Vec::new();
+        let cam = realistic(&p, render_from_camera, (open, close), film, assets, &mut notes)?;
+        warnings.extend(notes.into_iter().map(|n| Warning::at(&entity.loc, n)));
+        warnings.extend(p.unused_warnings());
+        return Ok(Camera::Realistic(Box::new(cam)));
+    }
     let c = common(&p, entity, film, focal_default, warnings);
     let (rfc, res) = (render_from_camera, film.full_resolution);
     let camera = match name {
@@ -49,7 +59,41 @@ pub fn create(
         _ => Camera::Perspective(PerspectiveCamera::create(&p, rfc, &c, res)),
     };
     warnings.extend(p.unused_warnings());
-    camera
+    Ok(camera)
+}
+
+/// A `Camera "realistic"` (pbrt-v3 `CreateRealisticCamera`): its lens file
+/// from the scene's assets, its aperture and focus.
+fn realistic(
+    p: &Params,
+    rfc: AnimatedTransform,
+    (open, close): (f32, f32),
+    film: &FilmGeometry,
+    assets: &BTreeMap<String, Vec<u8>>,
+    notes: &mut Vec<String>,
+) -> Result<RealisticCamera, String> {
+    let lens_file = p.string("lensfile", "");
+    let aperture = p.float("aperturediameter", 1.0);
+    let focus = p.float("focusdistance", 10.0);
+    let simple = p.bool("simpleweighting", true);
+    if lens_file.is_empty() {
+        return Err("No lens description file supplied!".into());
+    }
+    let bytes = assets.get(&lens_file).ok_or_else(|| format!("{lens_file}: not loaded"))?;
+    let data = read_lens_file(bytes)
+        .map_err(|e| format!("Error reading lens specification file \"{lens_file}\": {e}"))?;
+    RealisticCamera::new(
+        rfc,
+        open,
+        close,
+        aperture,
+        focus,
+        simple,
+        &data,
+        film.diagonal,
+        film.full_resolution,
+        notes,
+    )
 }
 
 #[cfg(test)]
@@ -88,7 +132,9 @@ mod tests {
     #[test]
     fn defaults_follow_pbrt() {
         let mut w = Vec::new();
-        let c = create(&Entity::named("perspective"), fixed(), &film(20, 10), &mut w);
+        let c =
+            create(&Entity::named("perspective"), fixed(), &film(20, 10), &BTreeMap::new(), &mut w)
+                .unwrap();
         assert!(w.is_empty(), "{w:?}");
         assert_eq!(c.shutter(), (0.0, 1.0));
         let p = c.projective().unwrap();
@@ -107,8 +153,10 @@ mod tests {
             &Entity { loc: FileLoc { file: "s.pbrt".into(), line: 1, column: 1 }, ..e },
             fixed(),
             &film(8, 8),
+            &BTreeMap::new(),
             &mut w,
-        );
+        )
+        .unwrap();
         assert!(matches!(c, Camera::Perspective(_)));
         let text: Vec<String> = w.iter().map(|w| w.to_string()).collect();
         assert_eq!(
@@ -132,7 +180,7 @@ mod tests {
                 ("screenwindow", &[1.0, 2.0]),
             ],
         );
-        let c = create(&e, fixed(), &film(8, 8), &mut w);
+        let c = create(&e, fixed(), &film(8, 8), &BTreeMap::new(), &mut w).unwrap();
         assert_eq!(c.shutter(), (1.0, 2.0));
         assert_eq!(w.len(), 2, "{w:?}");
         assert!(w[0]
@@ -150,7 +198,7 @@ mod tests {
             &[("screenwindow", &[-1.0, 1.0, -3.0, 3.0]), ("lensradius", &[0.5])],
         );
         let scaled = AnimatedTransform::fixed(Transform::new(Mat4::from_scale(Vec3::splat(2.0))));
-        let c = create(&e, scaled, &film(8, 8), &mut w);
+        let c = create(&e, scaled, &film(8, 8), &BTreeMap::new(), &mut w).unwrap();
         assert!(matches!(c, Camera::Orthographic(_)) && c.lens_radius() == 0.5);
         assert!(w.len() == 1 && w[0].message.starts_with("Scaling detected"), "{w:?}");
     }

@@ -7,6 +7,7 @@ mod environment;
 mod orthographic;
 mod perspective;
 mod projective;
+mod realistic;
 
 pub use create::create;
 pub use environment::EnvironmentCamera;
@@ -14,6 +15,7 @@ pub use orthographic::OrthographicCamera;
 pub(crate) use perspective::perspective;
 pub use perspective::PerspectiveCamera;
 pub use projective::ProjectiveCamera;
+pub use realistic::{read_lens_file, LensElement, PupilBounds, RealisticCamera};
 
 use crate::sampling::CameraSample;
 use farm_common::geometry::{Ray, RayDifferential};
@@ -27,6 +29,8 @@ pub enum Camera {
     Orthographic(OrthographicCamera),
     /// `Camera "environment"`.
     Environment(EnvironmentCamera),
+    /// `Camera "realistic"`.
+    Realistic(Box<RealisticCamera>),
 }
 
 impl Camera {
@@ -37,6 +41,7 @@ impl Camera {
             Camera::Perspective(c) => c.generate_ray(s),
             Camera::Orthographic(c) => c.generate_ray(s),
             Camera::Environment(c) => c.generate_ray(s),
+            Camera::Realistic(c) => c.generate_ray(s),
         }
     }
 
@@ -47,6 +52,7 @@ impl Camera {
             Camera::Perspective(c) => c.generate_ray_differential(s),
             Camera::Orthographic(c) => c.generate_ray_differential(s),
             Camera::Environment(c) => c.generate_ray_differential(s),
+            Camera::Realistic(c) => c.generate_ray_differential(s),
         }
     }
 
@@ -54,6 +60,7 @@ impl Camera {
     pub fn shutter(&self) -> (f32, f32) {
         match self {
             Camera::Environment(c) => (c.shutter_open, c.shutter_close),
+            Camera::Realistic(c) => (c.shutter_open, c.shutter_close),
             _ => self.projective().map_or((0.0, 1.0), |p| (p.shutter_open, p.shutter_close)),
         }
     }
@@ -63,12 +70,17 @@ impl Camera {
         self.projective().map_or(0.0, |p| p.lens_radius)
     }
 
+    /// Whether the camera reads the sample's lens point.
+    pub fn uses_lens(&self) -> bool {
+        matches!(self, Camera::Realistic(_)) || self.lens_radius() > 0.0
+    }
+
     /// The state shared by projective cameras, for those that are.
     pub fn projective(&self) -> Option<&ProjectiveCamera> {
         match self {
             Camera::Perspective(c) => Some(&c.base),
             Camera::Orthographic(c) => Some(&c.base),
-            Camera::Environment(_) => None,
+            Camera::Environment(_) | Camera::Realistic(_) => None,
         }
     }
 }

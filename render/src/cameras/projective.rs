@@ -102,15 +102,9 @@ pub(super) struct Common {
     pub(super) screen: Bounds2f,
 }
 
-/// Reads the parameters every projective camera takes (pbrt-v3's
-/// shutter, lens and screen-window set-up in `Create*Camera`).
-pub(super) fn common(
-    p: &Params,
-    entity: &Entity,
-    film: &FilmGeometry,
-    focal_default: f32,
-    warnings: &mut Vec<Warning>,
-) -> Common {
+/// The shutter interval every camera reads (`shutteropen`, `shutterclose`),
+/// swapped with pbrt-v3's warning when given backwards.
+pub(super) fn shutter(p: &Params, entity: &Entity, warnings: &mut Vec<Warning>) -> (f32, f32) {
     let mut shutter_open = p.float("shutteropen", 0.0);
     let mut shutter_close = p.float("shutterclose", 1.0);
     if shutter_close < shutter_open {
@@ -120,6 +114,19 @@ pub(super) fn common(
         ));
         std::mem::swap(&mut shutter_open, &mut shutter_close);
     }
+    (shutter_open, shutter_close)
+}
+
+/// Reads the parameters every projective camera takes (pbrt-v3's
+/// shutter, lens and screen-window set-up in `Create*Camera`).
+pub(super) fn common(
+    p: &Params,
+    entity: &Entity,
+    film: &FilmGeometry,
+    focal_default: f32,
+    warnings: &mut Vec<Warning>,
+) -> Common {
+    let (shutter_open, shutter_close) = shutter(p, entity, warnings);
     let lens_radius = p.float("lensradius", 0.0);
     let focal_distance = p.float("focaldistance", focal_default);
     let res = film.full_resolution;

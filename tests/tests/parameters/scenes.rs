@@ -115,6 +115,7 @@ pub(crate) fn special(function: &str, name: &str) -> Option<&'static str> {
         "filename" if function == "CreatePLYMesh" => r#""string filename" "quad.ply""#,
         "filename" => r#""string filename" "tex.pfm""#,
         "mapname" => r#""string mapname" "tex.pfm""#,
+        "lensfile" => r#""string lensfile" "lens.dat""#,
         "namedmaterial1" => r#""string namedmaterial1" "one""#,
         "namedmaterial2" => r#""string namedmaterial2" "two""#,
         "indices" if mesh => r#""integer indices" [0 1 2 0 2 3]"#,
@@ -263,6 +264,7 @@ pub(crate) fn own_lookups(
 pub(crate) fn required(function: &str) -> &'static str {
     match function {
         "CreatePLYMesh" => r#""string filename" "quad.ply""#,
+        "CreateRealisticCamera" => r#""string lensfile" "lens.dat""#,
         // Control points come as "P" or, without it, as "Pw".
         "CreateNURBS" => {
             r#""integer nu" [2] "integer nv" [2] "integer uorder" [2] "integer vorder" [2]
@@ -306,4 +308,6 @@ pub(crate) fn write_assets(dir: &Path) {
          0 0 0\n1 0 0\n1 1 0\n0 1 0\n3 0 1 2\n3 0 2 3\n",
     )
     .expect("ply");
+    // A single thick lens with a stop behind it.
+    std::fs::write(dir.join("lens.dat"), "40 6 1.5 20\n-40 2 1 20\n0 30 0 12\n").expect("lens");
 }
