@@ -68,6 +68,16 @@ pub enum Fresnel {
         /// Its absorption coefficient.
         k: Spectrum,
     },
+    /// pbrt-v3's `DisneyFresnel`: a dielectric's Fresnel blended by
+    /// `metallic` toward Schlick's from the specular colour `r0`.
+    Disney {
+        /// Reflectance at normal incidence.
+        r0: Spectrum,
+        /// Metallic weight.
+        metallic: f32,
+        /// Index of refraction.
+        eta: f32,
+    },
 }
 
 impl Fresnel {
@@ -81,6 +91,11 @@ impl Fresnel {
             }
             Fresnel::Conductor { eta_i, eta_t, k } => {
                 fr_conductor(cos_theta_i.abs(), eta_i, eta_t, k)
+            }
+            Fresnel::Disney { r0, metallic, eta } => {
+                let dielectric = Spectrum::splat(fr_dielectric(cos_theta_i, 1.0, eta));
+                let schlick = super::disney::fr_schlick(r0, cos_theta_i);
+                dielectric * (1.0 - metallic) + schlick * metallic
             }
         }
     }

@@ -29,6 +29,9 @@ pub struct MicrofacetDistribution {
     pub alpha_y: f32,
     /// Sample only normals visible from `wo` (pbrt-v3's default).
     pub sample_visible_area: bool,
+    /// Masking and shadowing as the product G1(ωo) G1(ωi) (pbrt-v3's
+    /// `DisneyMicrofacetDistribution`) rather than height-correlated.
+    pub separable_g: bool,
 }
 
 /// pbrt-v3's perceptual roughness → α mapping (shared by both distributions).
@@ -50,6 +53,7 @@ impl MicrofacetDistribution {
             alpha_x: alpha_x.max(MIN_ALPHA),
             alpha_y: alpha_y.max(MIN_ALPHA),
             sample_visible_area: true,
+            separable_g: false,
         }
     }
 
@@ -60,6 +64,7 @@ impl MicrofacetDistribution {
             alpha_x: alpha_x.max(MIN_ALPHA),
             alpha_y: alpha_y.max(MIN_ALPHA),
             sample_visible_area: true,
+            separable_g: false,
         }
     }
 
@@ -116,6 +121,9 @@ impl MicrofacetDistribution {
     /// Masking–shadowing G(wo, wi).
     #[inline]
     pub fn g(&self, wo: Vec3, wi: Vec3) -> f32 {
+        if self.separable_g {
+            return self.g1(wo) * self.g1(wi);
+        }
         1.0 / (1.0 + self.lambda(wo) + self.lambda(wi))
     }
 

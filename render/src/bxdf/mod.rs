@@ -3,6 +3,7 @@
 //! `Bsdf` that holds up to eight scaled lobes without allocating.
 
 mod bsdf;
+pub mod disney;
 mod fresnel;
 mod fresnel_blend;
 mod lambert;
@@ -13,6 +14,7 @@ pub mod reflection;
 mod specular;
 
 pub use bsdf::{Bsdf, BsdfSample, MAX_BXDFS};
+pub use disney::{DisneyClearcoat, DisneyDiffuse, DisneyFakeSS, DisneyRetro, DisneySheen};
 pub use fresnel::{fr_conductor, fr_dielectric, Fresnel};
 pub use fresnel_blend::FresnelBlend;
 pub use lambert::{LambertianReflection, LambertianTransmission};
@@ -117,6 +119,16 @@ pub enum BxDF {
     MicrofacetTransmission(MicrofacetTransmission),
     /// Ashikhmin–Shirley diffuse/glossy blend.
     FresnelBlend(FresnelBlend),
+    /// Disney diffuse.
+    DisneyDiffuse(DisneyDiffuse),
+    /// Disney fake subsurface (thin surfaces).
+    DisneyFakeSS(DisneyFakeSS),
+    /// Disney retro-reflection.
+    DisneyRetro(DisneyRetro),
+    /// Disney sheen.
+    DisneySheen(DisneySheen),
+    /// Disney clearcoat.
+    DisneyClearcoat(DisneyClearcoat),
 }
 
 impl Default for BxDF {
@@ -137,6 +149,11 @@ macro_rules! dispatch {
             BxDF::MicrofacetReflection($b) => $e,
             BxDF::MicrofacetTransmission($b) => $e,
             BxDF::FresnelBlend($b) => $e,
+            BxDF::DisneyDiffuse($b) => $e,
+            BxDF::DisneyFakeSS($b) => $e,
+            BxDF::DisneyRetro($b) => $e,
+            BxDF::DisneySheen($b) => $e,
+            BxDF::DisneyClearcoat($b) => $e,
         }
     };
 }
@@ -147,12 +164,19 @@ impl BxDF {
     pub fn bxdf_type(&self) -> BxDFType {
         use BxDFType as T;
         match self {
-            BxDF::LambertianReflection(_) | BxDF::OrenNayar(_) => T::REFLECTION | T::DIFFUSE,
+            BxDF::LambertianReflection(_)
+            | BxDF::OrenNayar(_)
+            | BxDF::DisneyDiffuse(_)
+            | BxDF::DisneyFakeSS(_)
+            | BxDF::DisneyRetro(_)
+            | BxDF::DisneySheen(_) => T::REFLECTION | T::DIFFUSE,
             BxDF::LambertianTransmission(_) => T::TRANSMISSION | T::DIFFUSE,
             BxDF::SpecularReflection(_) => T::REFLECTION | T::SPECULAR,
             BxDF::SpecularTransmission(_) => T::TRANSMISSION | T::SPECULAR,
             BxDF::FresnelSpecular(_) => T::REFLECTION | T::TRANSMISSION | T::SPECULAR,
-            BxDF::MicrofacetReflection(_) | BxDF::FresnelBlend(_) => T::REFLECTION | T::GLOSSY,
+            BxDF::MicrofacetReflection(_) | BxDF::FresnelBlend(_) | BxDF::DisneyClearcoat(_) => {
+                T::REFLECTION | T::GLOSSY
+            }
             BxDF::MicrofacetTransmission(_) => T::TRANSMISSION | T::GLOSSY,
         }
     }

@@ -4,7 +4,7 @@
 //! sits in its own file.
 
 use super::{
-    subsurface, Glass, Material, Matte, Metal, Mirror, MixMaterial, Plastic, Substrate,
+    subsurface, Disney, Glass, Material, Matte, Metal, Mirror, MixMaterial, Plastic, Substrate,
     Translucent, Uber,
 };
 use crate::textures::{Resolver, TexInput, TextureSet};
@@ -53,6 +53,10 @@ impl MaterialParams<'_> {
     pub fn value(&self, name: &str, v: f32) -> f32 {
         self.p.float(name, v)
     }
+    /// A bool parameter, defaulting to `v`.
+    pub fn flag(&self, name: &str, v: bool) -> bool {
+        self.p.bool(name, v)
+    }
     /// A string parameter, defaulting to `v`.
     pub fn string(&self, name: &str, v: &str) -> String {
         self.p.string(name, v)
@@ -81,6 +85,7 @@ fn make(
         "plastic" => Material::Plastic(Plastic::create(m, w)),
         "mirror" => Material::Mirror(Mirror::create(m, w)),
         "glass" => Material::Glass(Glass::create(m, w)),
+        "disney" => Material::Disney(Box::new(Disney::create(m, w))),
         "subsurface" => Material::Glass(subsurface::subsurface(m, w)),
         "kdsubsurface" => Material::Glass(subsurface::kd_subsurface(m, w)),
         "metal" => Material::Metal(Metal::create(m, w)),

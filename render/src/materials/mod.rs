@@ -3,6 +3,7 @@
 
 mod bump;
 mod create;
+mod disney;
 mod glass;
 mod matte;
 mod metal;
@@ -16,6 +17,7 @@ mod uber;
 
 pub use bump::bump;
 pub use create::{build, derive, shape_may_set_material};
+pub use disney::Disney;
 pub use glass::Glass;
 pub use matte::Matte;
 pub use metal::Metal;
@@ -51,6 +53,8 @@ pub enum Material {
     Translucent(Translucent),
     /// `"mix"`.
     Mix(MixMaterial),
+    /// `"disney"`.
+    Disney(Box<Disney>),
 }
 
 /// Deepest nesting of mix materials followed (the parser only lets a mix
@@ -70,6 +74,7 @@ impl Material {
             Material::Substrate(m) => m.bump.as_ref(),
             Material::Translucent(m) => m.bump.as_ref(),
             Material::Mix(_) => None,
+            Material::Disney(m) => m.bump.as_ref(),
         }
     }
 
@@ -108,6 +113,7 @@ impl Material {
             Material::Uber(m) => m.bsdf(si, t, mode),
             Material::Substrate(m) => m.bsdf(si, t),
             Material::Translucent(m) => m.bsdf(si, t, mode),
+            Material::Disney(m) => m.bsdf(si, t, mode),
             Material::Mix(m) if depth < MAX_MIX_DEPTH => {
                 m.bsdf(si, materials, t, mode, allow, depth)
             }
