@@ -6,6 +6,7 @@ mod bsdf;
 pub mod disney;
 mod fresnel;
 mod fresnel_blend;
+pub mod hair;
 mod lambert;
 mod microfacet;
 mod microfacet_bxdf;
@@ -17,6 +18,7 @@ pub use bsdf::{Bsdf, BsdfSample, MAX_BXDFS};
 pub use disney::{DisneyClearcoat, DisneyDiffuse, DisneyFakeSS, DisneyRetro, DisneySheen};
 pub use fresnel::{fr_conductor, fr_dielectric, Fresnel};
 pub use fresnel_blend::FresnelBlend;
+pub use hair::HairBsdf;
 pub use lambert::{LambertianReflection, LambertianTransmission};
 pub use microfacet::{erf, erf_inv, roughness_to_alpha, DistributionKind, MicrofacetDistribution};
 pub use microfacet_bxdf::{MicrofacetReflection, MicrofacetTransmission};
@@ -129,7 +131,12 @@ pub enum BxDF {
     DisneySheen(DisneySheen),
     /// Disney clearcoat.
     DisneyClearcoat(DisneyClearcoat),
+    /// A hair fibre.
+    Hair(HairBsdf),
 }
+
+// A BSDF holds eight of these by value; keep them small.
+const _: () = assert!(std::mem::size_of::<BxDF>() <= 64);
 
 impl Default for BxDF {
     fn default() -> Self {
@@ -154,6 +161,7 @@ macro_rules! dispatch {
             BxDF::DisneyRetro($b) => $e,
             BxDF::DisneySheen($b) => $e,
             BxDF::DisneyClearcoat($b) => $e,
+            BxDF::Hair($b) => $e,
         }
     };
 }
@@ -178,6 +186,7 @@ impl BxDF {
                 T::REFLECTION | T::GLOSSY
             }
             BxDF::MicrofacetTransmission(_) => T::TRANSMISSION | T::GLOSSY,
+            BxDF::Hair(_) => T::REFLECTION | T::TRANSMISSION | T::GLOSSY,
         }
     }
 

@@ -4,8 +4,8 @@
 //! sits in its own file.
 
 use super::{
-    subsurface, Disney, Glass, Material, Matte, Metal, Mirror, MixMaterial, Plastic, Substrate,
-    Translucent, Uber,
+    subsurface, Disney, Glass, Hair, Material, Matte, Metal, Mirror, MixMaterial, Plastic,
+    Substrate, Translucent, Uber,
 };
 use crate::textures::{Resolver, TexInput, TextureSet};
 use farm_common::scene::{FileLoc, MaterialEntity, ParamSet, ParamValue, Params, Warning};
@@ -44,6 +44,10 @@ impl MaterialParams<'_> {
         self.r.float(self.p, name, v, w)
     }
 
+    /// A spectrum texture or value, if given.
+    pub fn spectrum_or_none(&self, name: &str, w: &mut Vec<Warning>) -> Option<TexInput<Spectrum>> {
+        self.r.spectrum_or_none(self.p, name, w)
+    }
     /// A float texture or value, if given.
     pub fn opt(&self, name: &str, w: &mut Vec<Warning>) -> Option<TexInput<f32>> {
         self.r.float_or_none(self.p, name, w)
@@ -86,6 +90,7 @@ fn make(
         "mirror" => Material::Mirror(Mirror::create(m, w)),
         "glass" => Material::Glass(Glass::create(m, w)),
         "disney" => Material::Disney(Box::new(Disney::create(m, w))),
+        "hair" => Material::Hair(Box::new(Hair::create(m, w))),
         "subsurface" => Material::Glass(subsurface::subsurface(m, w)),
         "kdsubsurface" => Material::Glass(subsurface::kd_subsurface(m, w)),
         "metal" => Material::Metal(Metal::create(m, w)),

@@ -5,6 +5,7 @@ mod bump;
 mod create;
 mod disney;
 mod glass;
+mod hair;
 mod matte;
 mod metal;
 mod mirror;
@@ -19,6 +20,7 @@ pub use bump::bump;
 pub use create::{build, derive, shape_may_set_material};
 pub use disney::Disney;
 pub use glass::Glass;
+pub use hair::Hair;
 pub use matte::Matte;
 pub use metal::Metal;
 pub use mirror::Mirror;
@@ -55,6 +57,8 @@ pub enum Material {
     Mix(MixMaterial),
     /// `"disney"`.
     Disney(Box<Disney>),
+    /// `"hair"`.
+    Hair(Box<Hair>),
 }
 
 /// Deepest nesting of mix materials followed (the parser only lets a mix
@@ -75,6 +79,7 @@ impl Material {
             Material::Translucent(m) => m.bump.as_ref(),
             Material::Mix(_) => None,
             Material::Disney(m) => m.bump.as_ref(),
+            Material::Hair(_) => None,
         }
     }
 
@@ -114,6 +119,7 @@ impl Material {
             Material::Substrate(m) => m.bsdf(si, t),
             Material::Translucent(m) => m.bsdf(si, t, mode),
             Material::Disney(m) => m.bsdf(si, t, mode),
+            Material::Hair(m) => m.bsdf(si, t),
             Material::Mix(m) if depth < MAX_MIX_DEPTH => {
                 m.bsdf(si, materials, t, mode, allow, depth)
             }

@@ -107,6 +107,15 @@ fn make<T: Cached>(
             scale: p.float("scale", 1.0),
             variation: p.float("variation", 0.2),
         }),
+        "ptex" => {
+            p.touch("filename");
+            p.touch("gamma");
+            w.push(Warning::at(
+                loc,
+                "texture type \"ptex\" is not supported (farm has no Ptex reader); materials that name it use their defaults",
+            ));
+            return None;
+        }
         other => {
             let kind = if is_spectrum { "Spectrum" } else { "Float" };
             w.push(Warning::at(loc, format!("{kind} texture type \"{other}\" unknown.")));

@@ -67,6 +67,17 @@ impl Resolver<'_> {
             .or_else(|| p.floats(name).and_then(|v| v.first()).map(|v| TexInput::Value(*v)))
     }
 
+    /// A spectrum texture parameter or value, if given.
+    pub fn spectrum_or_none(
+        &self,
+        p: &Params,
+        name: &str,
+        w: &mut Vec<Warning>,
+    ) -> Option<TexInput<Spectrum>> {
+        self.lookup(p, name, |t| t.spectrum_id, "spectrum", w)
+            .or_else(|| p.spectra(name).and_then(|v| v.first()).map(|v| TexInput::Value(*v)))
+    }
+
     /// A spectrum texture parameter or its value, else `default`.
     pub fn spectrum(
         &self,

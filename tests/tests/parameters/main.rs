@@ -39,7 +39,6 @@ const MISSING: &[(&str, &str)] = &[
         "no Ptex reader; the texture is refused with a warning naming it",
     ),
     // Not yet built (issue 13); each leaves this list when it lands.
-    ("CreateHairMaterial", "not built yet"),
     ("CreateFourierMaterial", "not built yet"),
 ];
 
