@@ -42,7 +42,7 @@ pub struct Features {
 pub fn texture_filters(t: &TextureEntity) -> bool {
     let p = Params::new(&t.entity.params);
     match t.entity.name.as_str() {
-        "imagemap" | "fbm" | "wrinkled" | "windy" => true,
+        "imagemap" | "fbm" | "wrinkled" | "windy" | "marble" => true,
         "checkerboard" => {
             p.int("dimension", 2) == 2 && p.string("aamode", "closedform") == "closedform"
         }
@@ -132,5 +132,52 @@ impl Features {
         };
         lines.push(format!("assets: {} files, {size}", self.assets.0));
         lines
+    }
+}
+
+#[cfg(test)]
+mod filter_tests {
+    use super::texture_filters;
+    use farm_common::geometry::{DMat4, Transform};
+    use farm_common::scene::{Entity, TextureEntity, TextureKind};
+    use std::collections::BTreeMap;
+
+    /// The analysis that decides whether camera rays carry differentials
+    /// reads texture names; the textures themselves know whether they
+    /// filter. The two must agree for every texture type, or a scene
+    /// renders without the differentials its textures need.
+    #[test]
+    fn the_name_list_agrees_with_the_textures() {
+        let names = [
+            "constant",
+            "scale",
+            "mix",
+            "bilerp",
+            "checkerboard",
+            "dots",
+            "imagemap",
+            "uv",
+            "fbm",
+            "wrinkled",
+            "windy",
+            "marble",
+        ];
+        for name in names {
+            let e = TextureEntity {
+                name: "t".into(),
+                kind: TextureKind::Spectrum,
+                entity: Entity::named(name),
+                world_from_texture: DMat4::IDENTITY,
+            };
+            let mut w = Vec::new();
+            let set = crate::textures::build(
+                std::slice::from_ref(&e),
+                &Transform::default(),
+                &BTreeMap::new(),
+                &mut w,
+            );
+            let built = set.spectra[0].as_ref().is_some_and(|t| t.uses_differentials());
+            assert_eq!(texture_filters(&e), built, "{name}");
+        }
     }
 }
