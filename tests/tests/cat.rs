@@ -112,8 +112,10 @@ fn scenes() -> Vec<PathBuf> {
     v.sort();
     // Some shared originals name files their folder lacks (their
     // `-whitted` variants are fixed); those cannot be read to begin with.
+    // The project's own scenes must all read.
     v.retain(|p| match parse_file(p) {
         Ok(_) => true,
+        Err(e) if p.starts_with(&root) => panic!("{}: {e}", p.display()),
         Err(e) => {
             eprintln!("skipping {}: {e}", p.display());
             false
