@@ -39,15 +39,8 @@ impl GoniometricLight {
     /// Intensity toward `r`, over squared distance.
     #[inline]
     pub fn sample_li(&self, r: &Interaction) -> Option<LightSample> {
-        let d = self.p - r.p;
-        let wi = d.normalize();
-        let li = self.i * self.scale(-wi) / d.length_squared();
-        Some(LightSample {
-            li,
-            wi,
-            pdf: 1.0,
-            p_light: Interaction { p: self.p, time: r.time, ..Default::default() },
-        })
+        let wi = (self.p - r.p).normalize();
+        super::point_sample(self.p, self.i * self.scale(-wi), r)
     }
 
     /// A `LightSource "goniometric"` (pbrt-v3 `CreateGoniometricLight`):

@@ -37,6 +37,19 @@ pub struct LightSample {
     pub p_light: Interaction,
 }
 
+/// The sample of a light at the single point `p`, giving intensity `i`
+/// toward `r` (before the inverse-square falloff, which this applies).
+#[inline]
+pub(crate) fn point_sample(p: Vec3, i: Spectrum, r: &Interaction) -> Option<LightSample> {
+    let d = p - r.p;
+    Some(LightSample {
+        li: i / d.length_squared(),
+        wi: d.normalize(),
+        pdf: 1.0,
+        p_light: Interaction { p, time: r.time, ..Default::default() },
+    })
+}
+
 /// A light source.
 #[derive(Clone, Debug)]
 pub enum Light {
