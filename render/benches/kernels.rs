@@ -342,7 +342,7 @@ mod bvh {
 mod bsdf {
     use super::*;
 
-    fn bsdf(name: &str) -> Bsdf {
+    fn bsdf(name: &str) -> Bsdf<'static> {
         let e = match name {
             "oren_nayar" => entity("matte", vec![("sigma", ParamValue::Float(vec![20.0]))]),
             "lambert" => entity("matte", vec![]),
@@ -350,8 +350,10 @@ mod bsdf {
         };
         let textures = TextureSet::default();
         let mut warnings = Vec::new();
-        let m =
-            materials::build(&[MaterialEntity { name: None, entity: e }], &textures, &mut warnings);
+        let files = materials::MaterialFiles::none();
+        let entity = [MaterialEntity { name: None, entity: e }];
+        // The BSDF borrows its materials; a bench can keep them for good.
+        let m = Vec::leak(materials::build(&entity, &textures, &files, &mut warnings));
         assert!(warnings.is_empty(), "{warnings:?}");
         // A hit whose shading frame is tilted away from the axes.
         let dpdu = Vec3::new(1.0, 0.2, -0.3);
@@ -368,7 +370,7 @@ mod bsdf {
             0.0,
             false,
         );
-        m[0].compute_bsdf(&mut si, &m, &textures, TransportMode::Radiance, false)
+        m[0].compute_bsdf(&mut si, m, &textures, TransportMode::Radiance, false)
     }
 
     /// World-space (wo, wi) pairs above the surface; every eighth wi lies

@@ -23,6 +23,8 @@ pub mod image;
 pub mod integrator;
 /// Surface hits and points.
 pub mod interaction;
+/// Spline and Fourier interpolation.
+pub mod interpolation;
 /// Light sources.
 pub mod lights;
 /// Materials.

@@ -46,8 +46,9 @@ impl World {
         let rfw = Transform::from_dmat4(render_from_world);
         let max_prims = crate::accel::max_prims_in_node(&desc.accelerator, warnings);
         let textures = Arc::new(textures::build(&desc.textures, &rfw, &desc.assets, warnings));
-        let materials = materials::build(&desc.materials, &textures, warnings);
-        let mut cx = ShapeCx { desc, textures: &textures, materials };
+        let files = materials::MaterialFiles::new(&desc.assets);
+        let materials = materials::build(&desc.materials, &textures, &files, warnings);
+        let mut cx = ShapeCx { desc, textures: &textures, files: &files, materials };
         let mut lights = Vec::new();
         for l in &desc.lights {
             if !l.world_from_light.is_static() {
@@ -197,6 +198,7 @@ fn placement(x: &AnimatedXform, render_from_world: DMat4) -> Placement {
 struct ShapeCx<'a> {
     desc: &'a SceneDescription,
     textures: &'a Arc<TextureSet>,
+    files: &'a materials::MaterialFiles<'a>,
     materials: Vec<Material>,
 }
 
@@ -222,7 +224,7 @@ impl ShapeCx<'_> {
         }
         let p = Params::new(&merged);
         let mut w = Vec::new();
-        let material = materials::derive(base, m as usize, &p, self.textures, &mut w);
+        let material = materials::derive(base, m as usize, &p, self.textures, self.files, &mut w);
         // The material's own warnings were given when it was built; keep
         // those about the shape's parameters.
         let at_shape = |w: &Warning| {

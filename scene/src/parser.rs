@@ -12,7 +12,7 @@ use super::tokenizer::{Token, TokenKind, Tokenizer};
 use super::transform;
 use super::values::{self, ParamType, ValueContext};
 use crate::error::{Result, SceneError};
-use farm_common::scene::{Entity, FileLoc, Param, ParamSet, SceneDescription, Warning};
+use farm_common::scene::{Entity, FileLoc, Param, ParamSet, ParamValue, SceneDescription, Warning};
 use glam::DVec3;
 use std::path::Path;
 
@@ -248,7 +248,10 @@ impl Parser {
                 self.builder.shape(e, dir)?;
             }
             "Material" => {
-                let e = self.entity(t, loc, "Material", dir)?;
+                let mut e = self.entity(t, loc, "Material", dir)?;
+                if e.name == "fourier" {
+                    self.builder.load_asset(&mut e, "bsdffile", dir)?;
+                }
                 self.builder.material(e);
             }
             "LightSource" => {
@@ -261,8 +264,15 @@ impl Parser {
             }
             "MakeNamedMaterial" | "MakeNamedMedium" => {
                 let name = self.string(t, &loc, &tok.text)?;
-                let e = Entity { name: String::new(), params: self.params(t, dir)?, loc };
+                let mut e = Entity { name: String::new(), params: self.params(t, dir)?, loc };
                 if tok.text == "MakeNamedMaterial" {
+                    let fourier = e.params.params.iter().any(|p| {
+                        p.name == "type"
+                            && matches!(&p.value, ParamValue::String(v) if v.first().is_some_and(|t| t == "fourier"))
+                    });
+                    if fourier {
+                        self.builder.load_asset(&mut e, "bsdffile", dir)?;
+                    }
                     self.builder.make_named_material(&name, e);
                 } else {
                     self.builder.make_named_medium(&name, e);

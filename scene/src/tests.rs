@@ -286,3 +286,23 @@ fn several_files_are_one_stream_of_scenes() {
     assert!(e.contains("bad.pbrt.gz"), "{e}");
     std::fs::remove_dir_all(dir).ok();
 }
+
+/// `Material "fourier"` and a named one read their `bsdffile` into the
+/// assets, under one key however often it is named; a missing file is an
+/// error at the parameter.
+#[test]
+fn fourier_tables_are_assets() {
+    let dir = temp_dir("fourier");
+    std::fs::write(dir.join("t.bsdf"), b"SCATFUN\x01 whatever").unwrap();
+    let src = "WorldBegin\nMaterial \"fourier\" \"string bsdffile\" \"t.bsdf\"\n\
+               MakeNamedMaterial \"n\" \"string type\" \"fourier\" \"string bsdffile\" \"t.bsdf\"\n\
+               WorldEnd\n";
+    let (s, w) = parse_str(src, "s.pbrt", &dir).unwrap();
+    assert!(w.is_empty(), "{w:?}");
+    assert_eq!(s.assets.len(), 1);
+    assert_eq!(s.assets.values().next().unwrap(), b"SCATFUN\x01 whatever");
+    let src = "WorldBegin\nMakeNamedMaterial \"n\" \"string type\" \"fourier\" \"string bsdffile\" \"gone.bsdf\"\n";
+    let e = parse_str(src, "s.pbrt", &dir).unwrap_err().to_string();
+    assert!(e.starts_with("s.pbrt:2:") && e.contains("gone.bsdf"), "{e}");
+    std::fs::remove_dir_all(dir).ok();
+}

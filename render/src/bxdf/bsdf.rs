@@ -26,7 +26,7 @@ pub struct BsdfSample {
 
 /// Scattering at one point: shading frame plus scaled lobes.
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Bsdf {
+pub struct Bsdf<'a> {
     /// Relative index of refraction across the boundary (1 for opaque).
     pub eta: f32,
     /// Shading normal.
@@ -38,10 +38,10 @@ pub struct Bsdf {
     /// Shading bitangent (ns × ss).
     pub ts: Vec3,
     n: usize,
-    bxdfs: [(BxDF, Spectrum); MAX_BXDFS],
+    bxdfs: [(BxDF<'a>, Spectrum); MAX_BXDFS],
 }
 
-impl Bsdf {
+impl<'a> Bsdf<'a> {
     /// An empty BSDF in `si`'s shading frame.
     pub fn new(si: &SurfaceInteraction, eta: f32) -> Self {
         let ns = si.shading.n;
@@ -59,13 +59,13 @@ impl Bsdf {
 
     /// Adds a lobe with unit scale. Lobes past [`MAX_BXDFS`] are dropped.
     #[inline]
-    pub fn add(&mut self, b: BxDF) {
+    pub fn add(&mut self, b: BxDF<'a>) {
         self.add_scaled(b, Spectrum::ONE);
     }
 
     /// Adds a lobe multiplied by `scale`.
     #[inline]
-    pub fn add_scaled(&mut self, b: BxDF, scale: Spectrum) {
+    pub fn add_scaled(&mut self, b: BxDF<'a>, scale: Spectrum) {
         debug_assert!(self.n < MAX_BXDFS, "too many BxDFs");
         if self.n < MAX_BXDFS {
             self.bxdfs[self.n] = (b, scale);
@@ -75,7 +75,7 @@ impl Bsdf {
 
     /// The lobes and their scales.
     #[inline]
-    pub fn lobes(&self) -> &[(BxDF, Spectrum)] {
+    pub fn lobes(&self) -> &[(BxDF<'a>, Spectrum)] {
         &self.bxdfs[..self.n]
     }
 
@@ -223,7 +223,7 @@ mod tests {
         )
     }
 
-    fn lobes() -> Vec<BxDF> {
+    fn lobes() -> Vec<BxDF<'static>> {
         let tr = MicrofacetDistribution::trowbridge_reitz(0.3, 0.3);
         let tra = MicrofacetDistribution::trowbridge_reitz(0.15, 0.4);
         let bk = MicrofacetDistribution::beckmann(0.35, 0.35);

@@ -4,6 +4,7 @@
 
 mod bsdf;
 pub mod disney;
+mod fourier;
 mod fresnel;
 mod fresnel_blend;
 pub mod hair;
@@ -16,6 +17,7 @@ mod specular;
 
 pub use bsdf::{Bsdf, BsdfSample, MAX_BXDFS};
 pub use disney::{DisneyClearcoat, DisneyDiffuse, DisneyFakeSS, DisneyRetro, DisneySheen};
+pub use fourier::{FourierBsdf, FourierTable, TableError};
 pub use fresnel::{fr_conductor, fr_dielectric, Fresnel};
 pub use fresnel_blend::FresnelBlend;
 pub use hair::HairBsdf;
@@ -102,7 +104,7 @@ pub struct BxDFSample {
 
 /// One scattering lobe in the local shading frame (+z is the shading normal).
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub enum BxDF {
+pub enum BxDF<'a> {
     /// Lambertian reflection.
     LambertianReflection(LambertianReflection),
     /// Lambertian transmission.
@@ -133,12 +135,14 @@ pub enum BxDF {
     DisneyClearcoat(DisneyClearcoat),
     /// A hair fibre.
     Hair(HairBsdf),
+    /// A tabulated (layerlab) BSDF.
+    Fourier(FourierBsdf<'a>),
 }
 
 // A BSDF holds eight of these by value; keep them small.
-const _: () = assert!(std::mem::size_of::<BxDF>() <= 64);
+const _: () = assert!(std::mem::size_of::<BxDF<'static>>() <= 64);
 
-impl Default for BxDF {
+impl Default for BxDF<'_> {
     fn default() -> Self {
         BxDF::LambertianReflection(LambertianReflection { r: Spectrum::ZERO })
     }
@@ -162,11 +166,12 @@ macro_rules! dispatch {
             BxDF::DisneySheen($b) => $e,
             BxDF::DisneyClearcoat($b) => $e,
             BxDF::Hair($b) => $e,
+            BxDF::Fourier($b) => $e,
         }
     };
 }
 
-impl BxDF {
+impl BxDF<'_> {
     /// The lobe's flags.
     #[inline]
     pub fn bxdf_type(&self) -> BxDFType {
@@ -186,7 +191,7 @@ impl BxDF {
                 T::REFLECTION | T::GLOSSY
             }
             BxDF::MicrofacetTransmission(_) => T::TRANSMISSION | T::GLOSSY,
-            BxDF::Hair(_) => T::REFLECTION | T::TRANSMISSION | T::GLOSSY,
+            BxDF::Hair(_) | BxDF::Fourier(_) => T::REFLECTION | T::TRANSMISSION | T::GLOSSY,
         }
     }
 

@@ -3,6 +3,7 @@
 //! material's constructor, with pbrt-v3's parameter names and defaults,
 //! sits in its own file.
 
+use super::fourier::{Fourier, MaterialFiles};
 use super::{
     subsurface, Disney, Glass, Hair, Material, Matte, Metal, Mirror, MixMaterial, Plastic,
     Substrate, Translucent, Uber,
@@ -17,6 +18,8 @@ pub(super) struct MaterialParams<'a> {
     p: &'a Params<'a>,
     r: &'a Resolver<'a>,
     loc: &'a FileLoc,
+    /// The files materials read.
+    pub files: &'a MaterialFiles<'a>,
     /// `"float bumpmap"` (a float texture), if given.
     pub bump: Option<TexInput<f32>>,
     /// `"bool remaproughness"`.
@@ -65,6 +68,10 @@ impl MaterialParams<'_> {
     pub fn string(&self, name: &str, v: &str) -> String {
         self.p.string(name, v)
     }
+    /// Where the material was declared.
+    pub fn loc(&self) -> &FileLoc {
+        self.loc
+    }
     /// A warning at the material's directive.
     pub fn warn(&self, w: &mut Vec<Warning>, message: String) {
         w.push(Warning::at(self.loc, message));
@@ -80,17 +87,19 @@ fn make(
     index: usize,
     p: &Params,
     r: &Resolver,
+    files: &MaterialFiles,
     w: &mut Vec<Warning>,
 ) -> Material {
     let bump = r.float_or_none(p, "bumpmap", w);
     let loc = &e.entity.loc;
-    let m = MaterialParams { p, r, loc, bump, remap: p.bool("remaproughness", true) };
+    let m = MaterialParams { p, r, loc, files, bump, remap: p.bool("remaproughness", true) };
     match e.entity.name.as_str() {
         "plastic" => Material::Plastic(Plastic::create(m, w)),
         "mirror" => Material::Mirror(Mirror::create(m, w)),
         "glass" => Material::Glass(Glass::create(m, w)),
         "disney" => Material::Disney(Box::new(Disney::create(m, w))),
         "hair" => Material::Hair(Box::new(Hair::create(m, w))),
+        "fourier" => Material::Fourier(Fourier::create(m, w)),
         "subsurface" => Material::Glass(subsurface::subsurface(m, w)),
         "kdsubsurface" => Material::Glass(subsurface::kd_subsurface(m, w)),
         "metal" => Material::Metal(Metal::create(m, w)),
@@ -127,10 +136,11 @@ pub fn derive(
     index: usize,
     p: &Params,
     textures: &TextureSet,
+    files: &MaterialFiles,
     warnings: &mut Vec<Warning>,
 ) -> Material {
     let r = Resolver { set: textures, limit: textures.floats.len().max(textures.spectra.len()) };
-    make(base, index, p, &r, warnings)
+    make(base, index, p, &r, files, warnings)
 }
 
 /// Whether a shape's parameters may set its material's (pbrt-v3
@@ -151,6 +161,7 @@ pub fn shape_may_set_material(set: &ParamSet) -> bool {
 pub fn build(
     materials: &[MaterialEntity],
     textures: &TextureSet,
+    files: &MaterialFiles,
     warnings: &mut Vec<Warning>,
 ) -> Vec<Material> {
     let r = Resolver { set: textures, limit: textures.floats.len().max(textures.spectra.len()) };
@@ -161,7 +172,7 @@ pub fn build(
             let p = Params::new(&e.entity.params);
             // pbrt-v3 reads "type" from MakeNamedMaterial's parameters.
             p.touch("type");
-            let m = make(e, i, &p, &r, warnings);
+            let m = make(e, i, &p, &r, files, warnings);
             warnings.extend(p.unused_warnings());
             m
         })
@@ -274,7 +285,7 @@ mod tests {
             },
             MaterialEntity { name: None, entity: entity("foo", vec![]) },
         ];
-        let built = build(&mats, &set, &mut w);
+        let built = build(&mats, &set, &MaterialFiles::none(), &mut w);
         assert!(w.iter().any(|x| x.message.contains("\"typo\" not used")), "{w:?}");
         assert!(w.iter().any(|x| x.message.contains("\"foo\" unknown")), "{w:?}");
         let wo = Vec3::new(0.0, 0.6, 0.8);
@@ -328,7 +339,7 @@ mod tests {
         });
         let mats =
             vec![MaterialEntity { name: None, entity: entity("matte", vec![("bumpmap", tref)]) }];
-        let built = build(&mats, &set, &mut w);
+        let built = build(&mats, &set, &MaterialFiles::none(), &mut w);
         let mut si = hit();
         built[0].compute_bsdf(&mut si, &built, &set, TransportMode::Radiance, false);
         // Height grows with u at slope 1: the normal leans to -x by 45°.

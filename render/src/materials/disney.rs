@@ -58,7 +58,7 @@ fn lerp(t: f32, a: Spectrum, b: Spectrum) -> Spectrum {
 
 impl Disney {
     /// The BSDF at `si` (pbrt-v3 `DisneyMaterial::ComputeScatteringFunctions`).
-    pub fn bsdf(&self, si: &SurfaceInteraction, t: &TextureSet, mode: TransportMode) -> Bsdf {
+    pub fn bsdf(&self, si: &SurfaceInteraction, t: &TextureSet, mode: TransportMode) -> Bsdf<'_> {
         let mut bsdf = Bsdf::new(si, 1.0);
         let c = t.eval(&self.color, si).clamp(0.0, f32::INFINITY);
         let metallic = t.eval(&self.metallic, si);

@@ -39,7 +39,7 @@ impl Glass {
         t: &TextureSet,
         mode: TransportMode,
         allow: bool,
-    ) -> Bsdf {
+    ) -> Bsdf<'_> {
         let eta = t.eval(&self.eta, si);
         let mut urough = t.eval(&self.u_roughness, si);
         let mut vrough = t.eval(&self.v_roughness, si);

@@ -37,7 +37,7 @@ pub struct Hair {
 
 impl Hair {
     /// The BSDF at `si`: the fibre seen at offset h = 2v − 1 across it.
-    pub fn bsdf(&self, si: &SurfaceInteraction, t: &TextureSet) -> Bsdf {
+    pub fn bsdf(&self, si: &SurfaceInteraction, t: &TextureSet) -> Bsdf<'_> {
         let bm = t.eval(&self.beta_m, si);
         let bn = t.eval(&self.beta_n, si);
         let a = t.eval(&self.alpha, si);

@@ -21,7 +21,7 @@ pub struct Matte {
 
 impl Matte {
     /// The BSDF at `si`.
-    pub fn bsdf(&self, si: &SurfaceInteraction, t: &TextureSet) -> Bsdf {
+    pub fn bsdf(&self, si: &SurfaceInteraction, t: &TextureSet) -> Bsdf<'_> {
         let mut bsdf = Bsdf::new(si, 1.0);
         let r = t.eval(&self.kd, si).clamp(0.0, f32::INFINITY);
         let sig = t.eval(&self.sigma, si).clamp(0.0, 90.0);

@@ -32,7 +32,7 @@ pub struct Metal {
 
 impl Metal {
     /// The BSDF at `si`.
-    pub fn bsdf(&self, si: &SurfaceInteraction, t: &TextureSet) -> Bsdf {
+    pub fn bsdf(&self, si: &SurfaceInteraction, t: &TextureSet) -> Bsdf<'_> {
         let mut bsdf = Bsdf::new(si, 1.0);
         let mut u = t.eval(self.u_roughness.as_ref().unwrap_or(&self.roughness), si);
         let mut v = t.eval(self.v_roughness.as_ref().unwrap_or(&self.roughness), si);

@@ -18,7 +18,7 @@ pub struct Mirror {
 
 impl Mirror {
     /// The BSDF at `si`.
-    pub fn bsdf(&self, si: &SurfaceInteraction, t: &TextureSet) -> Bsdf {
+    pub fn bsdf(&self, si: &SurfaceInteraction, t: &TextureSet) -> Bsdf<'_> {
         let mut bsdf = Bsdf::new(si, 1.0);
         let r = t.eval(&self.kr, si).clamp(0.0, f32::INFINITY);
         if !r.is_black() {

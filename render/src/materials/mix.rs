@@ -20,15 +20,15 @@ pub struct MixMaterial {
 
 impl MixMaterial {
     /// The BSDF at `si`: `m1`'s frame and η, with `m2`'s lobes appended.
-    pub(crate) fn bsdf(
+    pub(crate) fn bsdf<'m>(
         &self,
         si: &mut SurfaceInteraction,
-        materials: &[Material],
+        materials: &'m [Material],
         t: &TextureSet,
         mode: TransportMode,
         allow: bool,
         depth: u32,
-    ) -> Bsdf {
+    ) -> Bsdf<'m> {
         let s1 = t.eval(&self.amount, si).clamp(0.0, f32::INFINITY);
         let s2 = (Spectrum::ONE - s1).clamp(0.0, f32::INFINITY);
         let mut si2 = *si;

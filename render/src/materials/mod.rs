@@ -4,6 +4,7 @@
 mod bump;
 mod create;
 mod disney;
+mod fourier;
 mod glass;
 mod hair;
 mod matte;
@@ -19,6 +20,7 @@ mod uber;
 pub use bump::bump;
 pub use create::{build, derive, shape_may_set_material};
 pub use disney::Disney;
+pub use fourier::{Fourier, MaterialFiles};
 pub use glass::Glass;
 pub use hair::Hair;
 pub use matte::Matte;
@@ -59,6 +61,8 @@ pub enum Material {
     Disney(Box<Disney>),
     /// `"hair"`.
     Hair(Box<Hair>),
+    /// `"fourier"`.
+    Fourier(Fourier),
 }
 
 /// Deepest nesting of mix materials followed (the parser only lets a mix
@@ -80,32 +84,33 @@ impl Material {
             Material::Mix(_) => None,
             Material::Disney(m) => m.bump.as_ref(),
             Material::Hair(_) => None,
+            Material::Fourier(m) => m.bump.as_ref(),
         }
     }
 
     /// The BSDF at `si` (pbrt-v3 `ComputeScatteringFunctions`). Bump mapping
     /// first perturbs `si`'s shading geometry. Whitted passes
     /// `allow_multiple_lobes = false`.
-    pub fn compute_bsdf(
-        &self,
+    pub fn compute_bsdf<'m>(
+        &'m self,
         si: &mut SurfaceInteraction,
-        materials: &[Material],
+        materials: &'m [Material],
         textures: &TextureSet,
         mode: TransportMode,
         allow_multiple_lobes: bool,
-    ) -> Bsdf {
+    ) -> Bsdf<'m> {
         self.compute_at_depth(si, materials, textures, mode, allow_multiple_lobes, 0)
     }
 
-    pub(crate) fn compute_at_depth(
-        &self,
+    pub(crate) fn compute_at_depth<'m>(
+        &'m self,
         si: &mut SurfaceInteraction,
-        materials: &[Material],
+        materials: &'m [Material],
         t: &TextureSet,
         mode: TransportMode,
         allow: bool,
         depth: u32,
-    ) -> Bsdf {
+    ) -> Bsdf<'m> {
         if let Some(b) = self.bump_map() {
             bump(b, si, t);
         }
@@ -120,6 +125,7 @@ impl Material {
             Material::Translucent(m) => m.bsdf(si, t, mode),
             Material::Disney(m) => m.bsdf(si, t, mode),
             Material::Hair(m) => m.bsdf(si, t),
+            Material::Fourier(m) => m.bsdf(si, mode),
             Material::Mix(m) if depth < MAX_MIX_DEPTH => {
                 m.bsdf(si, materials, t, mode, allow, depth)
             }

@@ -28,7 +28,7 @@ pub struct Plastic {
 
 impl Plastic {
     /// The BSDF at `si`.
-    pub fn bsdf(&self, si: &SurfaceInteraction, t: &TextureSet) -> Bsdf {
+    pub fn bsdf(&self, si: &SurfaceInteraction, t: &TextureSet) -> Bsdf<'_> {
         let mut bsdf = Bsdf::new(si, 1.0);
         let kd = t.eval(&self.kd, si).clamp(0.0, f32::INFINITY);
         if !kd.is_black() {

@@ -27,7 +27,7 @@ pub struct Substrate {
 
 impl Substrate {
     /// The BSDF at `si`.
-    pub fn bsdf(&self, si: &SurfaceInteraction, t: &TextureSet) -> Bsdf {
+    pub fn bsdf(&self, si: &SurfaceInteraction, t: &TextureSet) -> Bsdf<'_> {
         let mut bsdf = Bsdf::new(si, 1.0);
         let d = t.eval(&self.kd, si).clamp(0.0, f32::INFINITY);
         let s = t.eval(&self.ks, si).clamp(0.0, f32::INFINITY);

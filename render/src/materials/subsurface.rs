@@ -101,7 +101,7 @@ pub(super) fn kd_subsurface(m: MaterialParams, w: &mut Vec<Warning>) -> Glass {
 
 #[cfg(test)]
 mod tests {
-    use super::super::{build, Material};
+    use super::super::{build, Material, MaterialFiles};
     use crate::textures::{TexInput, TextureSet};
     use farm_common::scene::{Entity, FileLoc, MaterialEntity, Param, ParamSet, ParamValue};
 
@@ -136,7 +136,7 @@ mod tests {
             material("subsurface", vec![("name", ParamValue::String(vec!["Ketchupp".into()]))]),
         ];
         let mut w = Vec::new();
-        let built = build(&mats, &TextureSet::default(), &mut w);
+        let built = build(&mats, &TextureSet::default(), &MaterialFiles::none(), &mut w);
         for m in &built {
             let Material::Glass(g) = m else { panic!("{m:?}") };
             assert_eq!(g.eta, TexInput::Value(1.33));

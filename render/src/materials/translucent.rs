@@ -32,7 +32,7 @@ pub struct Translucent {
 
 impl Translucent {
     /// The BSDF at `si`.
-    pub fn bsdf(&self, si: &SurfaceInteraction, t: &TextureSet, mode: TransportMode) -> Bsdf {
+    pub fn bsdf(&self, si: &SurfaceInteraction, t: &TextureSet, mode: TransportMode) -> Bsdf<'_> {
         let eta = 1.5;
         let mut bsdf = Bsdf::new(si, eta);
         let clamp = |s: Spectrum| s.clamp(0.0, f32::INFINITY);

@@ -40,7 +40,7 @@ pub struct Uber {
 
 impl Uber {
     /// The BSDF at `si`.
-    pub fn bsdf(&self, si: &SurfaceInteraction, t: &TextureSet, mode: TransportMode) -> Bsdf {
+    pub fn bsdf(&self, si: &SurfaceInteraction, t: &TextureSet, mode: TransportMode) -> Bsdf<'_> {
         let clamp = |s: Spectrum| s.clamp(0.0, f32::INFINITY);
         let e = t.eval(&self.eta, si);
         let op = clamp(t.eval(&self.opacity, si));

@@ -38,8 +38,6 @@ const MISSING: &[(&str, &str)] = &[
         "CreatePtexSpectrumTexture",
         "no Ptex reader; the texture is refused with a warning naming it",
     ),
-    // Not yet built (issue 13); each leaves this list when it lands.
-    ("CreateFourierMaterial", "not built yet"),
 ];
 
 /// Names a constructor farm has reads in pbrt-v3 but not in farm, and why.

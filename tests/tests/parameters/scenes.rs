@@ -116,6 +116,7 @@ pub(crate) fn special(function: &str, name: &str) -> Option<&'static str> {
         "filename" => r#""string filename" "tex.pfm""#,
         "mapname" => r#""string mapname" "tex.pfm""#,
         "lensfile" => r#""string lensfile" "lens.dat""#,
+        "bsdffile" => r#""string bsdffile" "table.bsdf""#,
         "namedmaterial1" => r#""string namedmaterial1" "one""#,
         "namedmaterial2" => r#""string namedmaterial2" "two""#,
         "indices" if mesh => r#""integer indices" [0 1 2 0 2 3]"#,
@@ -310,4 +311,8 @@ pub(crate) fn write_assets(dir: &Path) {
     .expect("ply");
     // A single thick lens with a stop behind it.
     std::fs::write(dir.join("lens.dat"), "40 6 1.5 20\n-40 2 1 20\n0 30 0 12\n").expect("lens");
+    // A Fourier BSDF table: two zenith nodes, constant series.
+    let table =
+        farm_render::bxdf::FourierTable::to_bytes(1.0, &[-1.0, 1.0], 1, &vec![vec![0.1]; 4]);
+    std::fs::write(dir.join("table.bsdf"), table).expect("bsdf");
 }
