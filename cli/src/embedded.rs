@@ -5,6 +5,7 @@
 //! the farm's retries, failure messages and ordered merge: there is one job
 //! engine, whichever way a scene is rendered.
 
+use crate::display::Display;
 use crate::error::Error;
 use farm_common::film::{checked_layout, FilmGeometry, FilmTile, Limits};
 use farm_common::ids::{JobId, TileAttempt, TileId, WorkerId};
@@ -41,6 +42,8 @@ pub struct SubmitOptions {
     pub limits: Limits,
     /// What the command line changes in the scene (`--cropwindow`, `--quick`).
     pub overrides: farm_scene::Overrides,
+    /// A display server (tev) to stream the image to, `HOST:PORT`.
+    pub display_server: Option<String>,
 }
 
 /// Progress of a running render.
@@ -149,11 +152,13 @@ pub fn run_job<R>(
     spp: u32,
     name: &str,
     threads: usize,
+    mut display: Option<&mut Display>,
     mut progress: impl FnMut(&Progress),
 ) -> Result<Arc<FinishedJob>, Error>
 where
     R: Fn(TileId) -> (FilmTile, RayStats) + Send + Sync + 'static,
 {
+    let geometry_bounds = geometry.cropped_pixel_bounds;
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(threads)
         .thread_name(|i| format!("farm-render-{i}"))
@@ -185,14 +190,28 @@ where
     sched.worker_joined(LOCAL_WORKER, "this process".into(), threads as u32, slots, now, &mut out);
     let job = sched.submit(spec, &mut out);
     let mut last_failure = String::new();
+    let mut display_cursor = 0;
     loop {
         for update in out.updates.drain(..) {
             match update {
                 JobUpdate::Progress { done, total, stats, .. } => {
                     progress(&Progress { tiles_done: done, tiles_total: total, stats })
                 }
-                JobUpdate::Finished(f) => return Ok(f),
+                JobUpdate::Finished(f) => {
+                    if let Some(d) = display.as_deref_mut() {
+                        show_final(d, &geometry_bounds, &f);
+                    }
+                    return Ok(f);
+                }
                 JobUpdate::Failed(m) => return Err(Error::JobFailed(m)),
+            }
+        }
+        if let (Some(d), Some(film)) = (display.as_deref_mut(), sched.film(job)) {
+            let (changed, next) = film.changes_since(display_cursor);
+            changed.iter().for_each(|r| d.changed(*r));
+            display_cursor = next;
+            if d.due() {
+                d.flush(|r| film.preview(r));
             }
         }
         if out.outstanding == 0 {
@@ -255,8 +274,17 @@ pub fn render_parsed(
     let features = renderer.features.clone();
     let t = Instant::now();
     let (geometry, spp) = (renderer.film.clone(), renderer.samples_per_pixel());
+    let mut display = opts.display_server.as_deref().and_then(|address| {
+        Display::connect(address, &desc.name, geometry.cropped_pixel_bounds)
+            .map_err(|e| {
+                warnings
+                    .push(Warning { loc: None, message: format!("{e}; not streaming the image") })
+            })
+            .ok()
+    });
     let render = move |tile| renderer.render_tile(tile);
-    let finished = run_job(render, geometry, spp, &desc.name, opts.threads, progress)?;
+    let finished =
+        run_job(render, geometry, spp, &desc.name, opts.threads, display.as_mut(), progress)?;
     let render_seconds = t.elapsed().as_secs_f64();
     let finished = Arc::try_unwrap(finished).unwrap_or_else(|f| (*f).clone());
     Ok(RenderSummary {
@@ -271,6 +299,26 @@ pub fn render_parsed(
         scene_name: desc.name,
         warnings,
     })
+}
+
+/// Sends the finished image whole (so the display ends on the written
+/// bits), and the per-pixel error estimate as a second image.
+fn show_final(d: &mut Display, film: &farm_common::geometry::Bounds2i, f: &FinishedJob) {
+    d.changed(*film);
+    let (w, origin) = (f.image.width, film.min);
+    d.flush(|r| {
+        let (x0, y0) = ((r.min.x - origin.x) as usize, (r.min.y - origin.y) as usize);
+        let (rw, rh) = (r.width() as usize, r.height() as usize);
+        let pixels = (0..rh)
+            .flat_map(|y| (0..rw).map(move |x| (y0 + y) * w + x0 + x))
+            .map(|i| f.image.pixels.get(i).copied().unwrap_or([0.0; 3]))
+            .collect();
+        RgbImage { width: rw, height: rh, pixels }
+    });
+    if let Some(e) = &f.error {
+        let title = format!("{} relMSE", d.title().rsplit_once(" (").map_or(d.title(), |t| t.0));
+        d.show(&title, e.width as i32, e.height as i32, &[("relMSE", e.per_pixel.clone())]);
+    }
 }
 
 /// Writes a finished render to its output path.
@@ -332,7 +380,7 @@ mod tests {
     fn run(
         render: impl Fn(TileId) -> (FilmTile, RayStats) + Send + Sync + 'static,
     ) -> Result<Arc<FinishedJob>, Error> {
-        run_job(render, geometry(), 4, "test", 2, |_| {})
+        run_job(render, geometry(), 4, "test", 2, None, |_| {})
     }
 
     #[test]

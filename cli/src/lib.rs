@@ -21,6 +21,8 @@ pub mod client;
 pub mod commands;
 /// `farm converge`: error against time over increasing sample counts.
 pub mod converge;
+/// Streaming the image to tev as it renders.
+pub mod display;
 /// Rendering a scene file in this process with the farm's scheduler.
 pub mod embedded;
 /// The CLI's errors and their exit codes.

@@ -5,7 +5,8 @@
 
 use crate::error::Error;
 use crate::estimate::{ErrorEstimate, Samples};
-use farm_common::film::{FilmGeometry, FilmTile};
+use farm_common::film::{FilmGeometry, FilmTile, Pixel};
+use farm_common::geometry::Bounds2i;
 use farm_common::ids::TileId;
 use farm_common::image::RgbImage;
 use std::collections::BTreeMap;
@@ -27,13 +28,17 @@ pub struct Film {
     sums: FilmTile,
     next: u32,
     pending: BTreeMap<u32, FilmTile>,
+    /// The pixel bounds of each tile taken, in the order taken: what a
+    /// watcher needs to redraw since it last looked (each tile is taken
+    /// once, so this never outgrows the tile count).
+    changes: Vec<Bounds2i>,
 }
 
 impl Film {
     /// An empty film.
     pub fn new(geometry: FilmGeometry) -> Self {
         let sums = FilmTile::new(geometry.cropped_pixel_bounds);
-        Film { geometry, sums, next: 0, pending: BTreeMap::new() }
+        Film { geometry, sums, next: 0, pending: BTreeMap::new(), changes: Vec::new() }
     }
 
     /// The layout.
@@ -92,6 +97,7 @@ impl Film {
     /// Takes a tile [`Film::check`] found new, and merges every tile whose
     /// turn has come.
     pub fn insert(&mut self, id: TileId, tile: FilmTile) {
+        self.changes.push(tile.pixel_bounds.intersect(&self.geometry.cropped_pixel_bounds));
         self.pending.insert(id.0, tile);
         while let Some(t) = self.pending.remove(&self.next) {
             self.sums.merge(&t);
@@ -106,26 +112,51 @@ impl Film {
         ErrorEstimate::from_pixels(g.cropped_pixel_bounds, &self.sums.pixels, g.scale, samples)
     }
 
+    /// The regions changed since a watcher's `cursor` (0 at first), and
+    /// the cursor to pass next time.
+    pub fn changes_since(&self, cursor: usize) -> (&[Bounds2i], usize) {
+        let from = cursor.min(self.changes.len());
+        (&self.changes[from..], self.changes.len())
+    }
+
+    /// The film as it stands over `region` (clipped to the film), for
+    /// display: the merged prefix plus the tiles that arrived early. The
+    /// written image is [`Film::image`]; this one's sums may be added in
+    /// another order, so it can differ from it in the last bits.
+    pub fn preview(&self, region: Bounds2i) -> RgbImage {
+        let b = region.intersect(&self.geometry.cropped_pixel_bounds);
+        let (w, h) = (b.width().max(0) as usize, b.height().max(0) as usize);
+        if w == 0 || h == 0 {
+            return RgbImage { width: 0, height: 0, pixels: Vec::new() };
+        }
+        let mut part = FilmTile::new(b);
+        part.merge(&self.sums);
+        for t in self.pending.values() {
+            part.merge(t);
+        }
+        let scale = self.geometry.scale;
+        let pixels = part.pixels.iter().map(|p| resolve(p, scale)).collect();
+        RgbImage { width: w, height: h, pixels }
+    }
+
     /// The image: weighted sums divided by weights, clamped at zero, times
     /// the film's `scale` (pbrt-v3 `Film::WriteImage`).
     pub fn image(&self) -> RgbImage {
         let b = self.geometry.cropped_pixel_bounds;
         let scale = self.geometry.scale;
-        let pixels = self
-            .sums
-            .pixels
-            .iter()
-            .map(|p| {
-                let mut rgb = p.contrib;
-                if p.weight != 0.0 {
-                    let inv = 1.0 / p.weight;
-                    rgb = rgb.map(|v| (v * inv).max(0.0));
-                }
-                rgb.map(|v| v * scale)
-            })
-            .collect();
+        let pixels = self.sums.pixels.iter().map(|p| resolve(p, scale)).collect();
         RgbImage { width: b.width() as usize, height: b.height() as usize, pixels }
     }
+}
+
+/// A pixel's value: its weighted sum over its weight, clamped at zero, times `scale`.
+fn resolve(p: &Pixel, scale: f32) -> [f32; 3] {
+    let mut rgb = p.contrib;
+    if p.weight != 0.0 {
+        let inv = 1.0 / p.weight;
+        rgb = rgb.map(|v| (v * inv).max(0.0));
+    }
+    rgb.map(|v| v * scale)
 }
 
 /// What is wrong with a tile's sums, if anything: every sum must be finite,
@@ -199,6 +230,38 @@ mod tests {
         }
         assert!(a.is_complete() && b.is_complete());
         assert_eq!(a.image(), b.image());
+    }
+
+    #[test]
+    fn the_preview_shows_early_tiles_and_ends_as_the_image() {
+        let g = film();
+        let n = g.tile_count();
+        let mut f = Film::new(g.clone());
+        let all = g.cropped_pixel_bounds;
+        // Tile 1 arrives first: it waits for tile 0, but the preview shows it.
+        f.accept(TileId(1), tile(&g, 1)).unwrap();
+        assert_eq!(f.merged(), 0);
+        let (changed, cursor) = f.changes_since(0);
+        assert_eq!(changed, [g.tile_pixel_bounds(TileId(1)).intersect(&all)]);
+        let p = f.preview(all);
+        let t1 = g.tile_pixel_bounds(TileId(1));
+        let inside = t1.min;
+        let offset = all.offset(inside);
+        assert!(p.pixels[offset][0] > 0.0, "an early tile is shown");
+        let t0 = g.tile_pixel_bounds(TileId(0));
+        assert_eq!(p.pixels[all.offset(t0.min)], [0.0; 3], "a missing tile is black");
+        for i in (0..n).filter(|&i| i != 1) {
+            f.accept(TileId(i), tile(&g, i)).unwrap();
+        }
+        let (changed, end) = f.changes_since(cursor);
+        assert_eq!((changed.len(), end), (n as usize - 1, n as usize));
+        assert!(f.changes_since(end).0.is_empty());
+        // Once complete, the preview is the image.
+        assert_eq!(f.preview(all), f.image());
+        let corner = Bounds2i::new(Point2i::new(30, 10), Point2i::new(99, 99));
+        let part = f.preview(corner);
+        assert_eq!((part.width, part.height), (10, 10));
+        assert_eq!(part.pixels[0], f.image().pixels[all.offset(Point2i::new(30, 10))]);
     }
 
     #[test]

@@ -6,6 +6,8 @@
 pub mod cluster;
 /// A worker driven by hand.
 pub mod fake;
+/// A stand-in for the tev display server.
+pub mod fake_tev;
 /// The bodies of the fuzz targets.
 pub mod fuzz;
 

@@ -40,6 +40,10 @@ pub struct SubmitArgs {
     /// per pixel (pbrt-v3's --quick; the random sampler keeps its count).
     #[arg(long)]
     pub quick: bool,
+    /// Stream the image to this display server as it renders (tev, which
+    /// listens on port 14158; pbrt-v4's flag). Embedded renders only, for now.
+    #[arg(long, value_name = "HOST:PORT")]
+    pub display_server: Option<String>,
     /// Print nothing but errors.
     #[arg(short, long)]
     pub quiet: bool,
@@ -153,6 +157,9 @@ struct Parsed {
 }
 
 async fn run_remote(args: &SubmitArgs, scene: Parsed) -> ExitCode {
+    if args.display_server.is_some() && !args.quiet {
+        eprintln!("warning: --display-server streams embedded renders only for now; ignored with --coordinator");
+    }
     let token = match args.token.token() {
         Ok(t) => t,
         Err(e) => return fail(&e),
@@ -219,6 +226,7 @@ fn run_embedded(args: &SubmitArgs, scene: Parsed) -> ExitCode {
         all_paths: false,
         limits: (&args.limits).into(),
         overrides: overrides(args),
+        display_server: args.display_server.clone(),
     };
     let bar = crate::progress::progress_bar(args.quiet);
     let started = std::time::Instant::now();

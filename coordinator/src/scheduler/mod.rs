@@ -70,6 +70,11 @@ impl Scheduler {
         }
     }
 
+    /// The film of an active job, as it stands (for live previews).
+    pub fn film(&self, job: JobId) -> Option<&crate::merge::Film> {
+        self.jobs.get(&job)?.film.as_ref()
+    }
+
     /// Jobs and workers for `farm status`.
     pub fn status(&self) -> (Vec<JobRow>, Vec<WorkerRow>) {
         let jobs = self

@@ -1,0 +1,74 @@
+//! `farm submit --display-server`: the image streamed to tev as it renders.
+//! A fake tev decodes the packets; what it ends up showing must be the
+//! written image, bit for bit, and the error estimate as a second image.
+
+use farm_cli::embedded::{self as submit, SubmitOptions};
+use farm_tests::fake_tev::FakeTev;
+use std::path::Path;
+
+fn scene() -> std::path::PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../scenes/example.pbrt")
+}
+
+#[test]
+fn tev_ends_showing_the_written_image_and_its_error_map() {
+    let tev = FakeTev::start();
+    let opts = SubmitOptions {
+        spp: Some(4),
+        threads: 2,
+        display_server: Some(tev.address.clone()),
+        ..Default::default()
+    };
+    let summary = submit::render(&scene(), &opts, |_| {}).expect("render");
+    assert!(
+        summary.warnings.iter().all(|w| !w.message.contains("display")),
+        "{:?}",
+        summary.warnings
+    );
+    let seen = tev.finish();
+    assert!(seen.errors.is_empty(), "{:?}", seen.errors);
+    assert_eq!(seen.images.len(), 2, "{:?}", seen.images.keys().collect::<Vec<_>>());
+    let (title, img) = seen.images.iter().find(|(t, _)| !t.contains("relMSE")).expect("the image");
+    assert!(title.starts_with("example"), "{title}");
+    let (w, h) = (summary.image.width, summary.image.height);
+    assert_eq!(img.size, (w, h));
+    assert_eq!(img.channels.keys().collect::<Vec<_>>(), ["B", "G", "R"]);
+    for (c, name) in ["R", "G", "B"].iter().enumerate() {
+        let shown = &img.channels[*name];
+        let written: Vec<f32> = summary.image.pixels.iter().map(|p| p[c]).collect();
+        assert!(
+            shown.iter().zip(&written).all(|(a, b)| a.to_bits() == b.to_bits()),
+            "channel {name} differs"
+        );
+    }
+    // 480×320 is 4×3 pieces of 128², each sent per channel at least at the end.
+    assert!(img.updates >= 3 * 12, "{} updates", img.updates);
+    let (_, err) = seen.images.iter().find(|(t, _)| t.contains("relMSE")).expect("the error map");
+    let e = summary.error.as_ref().expect("4 spp has an estimate");
+    assert_eq!(err.size, (e.width, e.height));
+    assert_eq!(err.channels["relMSE"], e.per_pixel);
+}
+
+#[test]
+fn a_missing_display_server_is_a_warning_not_a_failure() {
+    // A port nothing listens on: bind one, then free it.
+    let address =
+        std::net::TcpListener::bind("127.0.0.1:0").unwrap().local_addr().unwrap().to_string();
+    let opts = SubmitOptions {
+        spp: Some(1),
+        threads: 2,
+        display_server: Some(address.clone()),
+        overrides: farm_scene::Overrides { quick: true, ..Default::default() },
+        ..Default::default()
+    };
+    let summary = submit::render(&scene(), &opts, |_| {}).expect("the render goes on");
+    let w: Vec<&str> = summary.warnings.iter().map(|w| w.message.as_str()).collect();
+    assert!(w.iter().any(|m| m.contains(&address) && m.contains("not streaming")), "{w:?}");
+    let bad = SubmitOptions { display_server: Some("no-port-here".into()), ..opts };
+    let summary = submit::render(&scene(), &bad, |_| {}).expect("the render goes on");
+    assert!(
+        summary.warnings.iter().any(|w| w.message.contains("HOST:PORT")),
+        "{:?}",
+        summary.warnings
+    );
+}
