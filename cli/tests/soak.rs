@@ -86,12 +86,14 @@ async fn chaos_session(
         .into_inner();
     counts.sessions.fetch_add(1, Ordering::Relaxed);
     let mut held = Vec::new();
+    let mut last_assign = tokio::time::Instant::now();
     let mut beat = tokio::time::interval(Duration::from_millis(100));
     loop {
         tokio::select! {
             m = inbound.message() => {
                 let Ok(Some(m)) = m else { return Ok(()) };
                 let Some(coordinator_message::Kind::Assign(a)) = m.kind else { continue };
+                last_assign = tokio::time::Instant::now();
                 let r = renderer(renderers, a.spp);
                 let tile = TileId(a.tile);
                 let (ft, stats) = tokio::task::spawn_blocking(move || r.render_tile(tile))
@@ -115,7 +117,13 @@ async fn chaos_session(
                 }
             }
             _ = beat.tick() => {
-                if held.len() >= 3 {
+                // Held results are released by falling silent once three
+                // are held, or once no more work comes (a job's last tiles):
+                // a worker that heartbeats while holding a tile for ever is
+                // a stuck worker, a fault the scheduler does not yet detect
+                // (no tile lease), not the one this session models.
+                let idle = last_assign.elapsed() > Duration::from_secs(1);
+                if held.len() >= 3 || (!held.is_empty() && idle) {
                     // Fall silent until declared lost (three heartbeats of
                     // 0.2 s), then send what was held: late results from a
                     // lost worker, for tiles handed to others since.
