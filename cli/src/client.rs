@@ -1,6 +1,7 @@
 //! Talking to a coordinator: `farm submit --coordinator`, `farm status`,
 //! `farm cancel` and `farm health`.
 
+use crate::display::LiveDisplay;
 use crate::embedded::RenderSummary;
 use crate::error::Error;
 use farm_common::film::FilmGeometry;
@@ -9,7 +10,7 @@ use farm_common::stats::RayStats;
 use farm_coordinator::estimate::ErrorEstimate;
 use farm_proto::auth::Token;
 use farm_proto::connect::Client;
-use farm_proto::convert::{blob_chunks, encode_scene, Blob, ImageAssembler};
+use farm_proto::convert::{blob_chunks, decode_preview, encode_scene, Blob, ImageAssembler};
 use farm_proto::v1::{self, job_event};
 use farm_proto::PROTOCOL_VERSION;
 use farm_render::features::Features;
@@ -61,6 +62,10 @@ pub struct RemoteOptions {
     pub reconnect_for: std::time::Duration,
     /// What the command line changes in the scene (`--cropwindow`, `--quick`).
     pub overrides: farm_scene::Overrides,
+    /// A display server (tev) to stream the image to as it renders.
+    pub display_server: Option<String>,
+    /// Print nothing but errors (a display server that cannot be reached).
+    pub quiet: bool,
 }
 
 impl Default for RemoteOptions {
@@ -73,6 +78,8 @@ impl Default for RemoteOptions {
             detach: false,
             reconnect_for: std::time::Duration::from_secs(600),
             overrides: farm_scene::Overrides::default(),
+            display_server: None,
+            quiet: false,
         }
     }
 }
@@ -178,7 +185,17 @@ pub async fn submit_parsed(
     let Submitted { job, client, desc, warnings, startup_seconds } =
         start_parsed(remote, scene, desc, warnings, start, opts).await?;
     let (film, _) = FilmGeometry::from_description(&desc);
-    let done = follow(remote, job, Some(client), opts.reconnect_for, |p| progress(job, p)).await?;
+    let mut display =
+        opts.display_server.as_deref().map(|a| LiveDisplay::new(a, &desc.name, opts.quiet));
+    let done = follow_live(
+        remote,
+        job,
+        Some(client),
+        opts.reconnect_for,
+        |p| progress(job, p),
+        display.as_mut(),
+    )
+    .await?;
     Ok(RenderSummary {
         image: done.image,
         error: done.error,
@@ -226,9 +243,22 @@ fn transient(e: &Error) -> bool {
 pub async fn follow(
     remote: &Remote,
     job: u64,
+    client: Option<Client>,
+    reconnect_for: std::time::Duration,
+    progress: impl FnMut(&RemoteProgress),
+) -> Result<JobImage, Error> {
+    follow_live(remote, job, client, reconnect_for, progress, None).await
+}
+
+/// [`follow`], streaming the image to `display` as it renders and when
+/// it is done.
+pub async fn follow_live(
+    remote: &Remote,
+    job: u64,
     mut client: Option<Client>,
     reconnect_for: std::time::Duration,
     mut progress: impl FnMut(&RemoteProgress),
+    mut display: Option<&mut LiveDisplay>,
 ) -> Result<JobImage, Error> {
     let mut backoff = std::time::Duration::from_millis(100);
     let mut last_heard = Instant::now();
@@ -238,10 +268,15 @@ pub async fn follow(
                 Some(c) => c,
                 None => connect(remote).await?,
             };
-            watch_once(&mut c, job, &mut progress, &mut last_heard).await
+            watch_once(&mut c, job, &mut progress, &mut last_heard, display.as_deref_mut()).await
         };
         match attempt.await {
-            Ok(image) => return Ok(image),
+            Ok(image) => {
+                if let Some(d) = display.as_deref_mut() {
+                    d.finish(&image.image, image.error.as_ref().map(|e| e.per_pixel.as_slice()));
+                }
+                return Ok(image);
+            }
             Err(e) if transient(&e) && last_heard.elapsed() < reconnect_for => {
                 tracing::warn!(job, error = %e, "lost the coordinator; reconnecting");
                 tokio::time::sleep(backoff).await;
@@ -258,8 +293,11 @@ async fn watch_once(
     job: u64,
     progress: &mut impl FnMut(&RemoteProgress),
     last_heard: &mut Instant,
+    mut display: Option<&mut LiveDisplay>,
 ) -> Result<JobImage, Error> {
-    let mut events = client.watch_job(v1::WatchJobRequest { job_id: job }).await?.into_inner();
+    let live = display.is_some();
+    let mut events =
+        client.watch_job(v1::WatchJobRequest { job_id: job, live }).await?.into_inner();
     let mut assembler = ImageAssembler::default();
     while let Some(ev) = events.message().await? {
         *last_heard = Instant::now();
@@ -291,6 +329,15 @@ async fn watch_once(
                 });
             }
             Some(job_event::Kind::Failed(f)) => return Err(Error::JobFailed(f.message)),
+            Some(job_event::Kind::Preview(p)) => {
+                let Some(d) = display.as_deref_mut() else { continue };
+                // A preview is display only: one that does not fit is
+                // dropped, and the render goes on.
+                match decode_preview(&p, p.width, p.height) {
+                    Ok(pieces) => d.pieces(p.width, p.height, &pieces),
+                    Err(e) => tracing::warn!(job, error = %e, "preview ignored"),
+                }
+            }
             None => {}
         }
     }

@@ -12,7 +12,8 @@
 //! render: sending stops with one message, and the image is still written.
 
 use farm_common::geometry::{Bounds2i, Point2i};
-use farm_common::image::RgbImage;
+use farm_common::image::{ImagePiece, RgbImage};
+use farm_coordinator::live::pieces;
 use std::io::Write;
 use std::net::{TcpStream, ToSocketAddrs};
 use std::time::{Duration, Instant};
@@ -21,8 +22,6 @@ use std::time::{Duration, Instant};
 pub const CREATE_IMAGE: u8 = 4;
 /// `UpdateImage`.
 pub const UPDATE_IMAGE: u8 = 3;
-/// Largest rectangle one update carries (pbrt-v4's).
-pub const PIECE: i32 = 128;
 /// Least time between two updates of a live image (pbrt-v4's 250 ms).
 pub const INTERVAL: Duration = Duration::from_millis(250);
 
@@ -72,32 +71,6 @@ pub fn update_image(title: &str, channel: &str, rect: Bounds2i, values: &[f32]) 
     })
 }
 
-/// The 128×128 pieces of the image, numbered row by row, that meet `r`.
-fn pieces(width: i32, height: i32, r: Bounds2i) -> impl Iterator<Item = Bounds2i> {
-    let r = r.intersect(&Bounds2i::new(Point2i::new(0, 0), Point2i::new(width, height)));
-    let (x0, y0) = (r.min.x / PIECE, r.min.y / PIECE);
-    let (x1, y1) = if r.is_empty() {
-        (x0, y0)
-    } else {
-        ((r.max.x + PIECE - 1) / PIECE, (r.max.y + PIECE - 1) / PIECE)
-    };
-    (y0..y1).flat_map(move |py| {
-        (x0..x1).map(move |px| {
-            let min = Point2i::new(px * PIECE, py * PIECE);
-            let max = Point2i::new((min.x + PIECE).min(width), (min.y + PIECE).min(height));
-            Bounds2i::new(min, max)
-        })
-    })
-}
-
-/// `r` moved by (dx, dy).
-fn shift(r: Bounds2i, dx: i32, dy: i32) -> Bounds2i {
-    Bounds2i::new(
-        Point2i::new(r.min.x + dx, r.min.y + dy),
-        Point2i::new(r.max.x + dx, r.max.y + dy),
-    )
-}
-
 /// A connection to a display server, showing one image.
 #[derive(Debug)]
 pub struct Display {
@@ -106,18 +79,14 @@ pub struct Display {
     title: String,
     width: i32,
     height: i32,
-    /// The image's origin on the film (its crop window's corner).
-    origin: Point2i,
     last: Option<Instant>,
-    /// 128×128 pieces changed since the last send (by piece index).
-    dirty: Vec<bool>,
 }
 
 impl Display {
-    /// Connects to `address` (`HOST:PORT`) and opens an image of the film's
-    /// cropped pixel bounds `film`. A server that cannot be reached is
-    /// reported in the error; the caller renders on without it.
-    pub fn connect(address: &str, title: &str, film: Bounds2i) -> Result<Display, String> {
+    /// Connects to `address` (`HOST:PORT`) and opens a `width`×`height`
+    /// image. A server that cannot be reached is reported in the error; the
+    /// caller renders on without it.
+    pub fn connect(address: &str, title: &str, width: i32, height: i32) -> Result<Display, String> {
         let addrs = address
             .to_socket_addrs()
             .map_err(|e| format!("display server {address}: {e} (expected HOST:PORT)"))?;
@@ -139,19 +108,13 @@ impl Display {
             })?;
         stream.set_write_timeout(Some(Duration::from_secs(3))).ok();
         stream.set_nodelay(true).ok();
-        let (width, height) = (film.width(), film.height());
-        let n =
-            pieces(width, height, Bounds2i::new(Point2i::new(0, 0), Point2i::new(width, height)))
-                .count();
         let mut d = Display {
             stream: Some(stream),
             address: address.to_string(),
             title: format!("{title} ({})", std::process::id()),
             width,
             height,
-            origin: film.min,
             last: None,
-            dirty: vec![false; n],
         };
         d.send(&create_image(&d.title, width, height, &["R", "G", "B"]));
         Ok(d)
@@ -170,43 +133,46 @@ impl Display {
         }
     }
 
-    /// Notes that film region `r` (film pixel coordinates) has changed.
-    pub fn changed(&mut self, r: Bounds2i) {
-        let local = shift(r, -self.origin.x, -self.origin.y);
-        let cols = (self.width + PIECE - 1) / PIECE;
-        for p in pieces(self.width, self.height, local) {
-            let i = (p.min.y / PIECE * cols + p.min.x / PIECE) as usize;
-            self.dirty[i] = true;
-        }
-    }
-
-    /// Whether an update is due: something changed and [`INTERVAL`] has
-    /// passed since the last.
+    /// Whether an update is due: [`INTERVAL`] has passed since the last
+    /// (and the server is still there).
     pub fn due(&self) -> bool {
-        self.stream.is_some()
-            && self.dirty.iter().any(|&d| d)
-            && self.last.is_none_or(|t| t.elapsed() >= INTERVAL)
+        self.stream.is_some() && self.last.is_none_or(|t| t.elapsed() >= INTERVAL)
     }
 
-    /// Sends every changed piece; `pixels(film_region)` gives the film's
-    /// values over a region of film coordinates.
-    pub fn flush(&mut self, mut pixels: impl FnMut(Bounds2i) -> RgbImage) {
+    /// Sends pieces of the image (image coordinates), one packet per
+    /// channel each; pieces that do not fit the image are skipped.
+    pub fn pieces(&mut self, pieces: &[ImagePiece]) {
         self.last = Some(Instant::now());
         let full = Bounds2i::new(Point2i::new(0, 0), Point2i::new(self.width, self.height));
-        let all: Vec<Bounds2i> = pieces(self.width, self.height, full).collect();
-        for (i, p) in all.into_iter().enumerate() {
-            if !std::mem::take(&mut self.dirty[i]) {
-                continue;
-            }
-            let img = pixels(shift(p, self.origin.x, self.origin.y));
-            if img.pixels.len() != p.area() {
+        for p in pieces {
+            if p.bounds.intersect(&full) != p.bounds || p.image.pixels.len() != p.bounds.area() {
                 continue;
             }
             for (c, name) in ["R", "G", "B"].iter().enumerate() {
-                let values: Vec<f32> = img.pixels.iter().map(|v| v[c]).collect();
-                let bytes = update_image(&self.title, name, p, &values);
+                let values: Vec<f32> = p.image.pixels.iter().map(|v| v[c]).collect();
+                let bytes = update_image(&self.title, name, p.bounds, &values);
                 self.send(&bytes);
             }
+        }
+    }
+
+    /// Sends the finished image whole, so the display ends on the written
+    /// bits, and the per-pixel error estimate as a second image.
+    pub fn finish(&mut self, image: &RgbImage, error: Option<&[f32]>) {
+        let (w, h) = (image.width as i32, image.height as i32);
+        let full = Bounds2i::new(Point2i::new(0, 0), Point2i::new(w, h));
+        let parts: Vec<ImagePiece> = pieces(w, h, full)
+            .map(|(_, b)| {
+                let pixels = b.iter().map(|q| image.pixels[(q.y * w + q.x) as usize]).collect();
+                let img =
+                    RgbImage { width: b.width() as usize, height: b.height() as usize, pixels };
+                ImagePiece { bounds: b, image: img, error: None }
+            })
+            .collect();
+        self.pieces(&parts);
+        if let Some(e) = error {
+            let title = self.title.rsplit_once(" (").map_or(self.title.clone(), |t| t.0.into());
+            self.show(&format!("{title} relMSE"), w, h, &[("relMSE", e.to_vec())]);
         }
     }
 
@@ -217,7 +183,7 @@ impl Display {
         let names: Vec<&str> = channels.iter().map(|(n, _)| *n).collect();
         self.send(&create_image(&title, width, height, &names));
         let full = Bounds2i::new(Point2i::new(0, 0), Point2i::new(width, height));
-        for p in pieces(width, height, full) {
+        for (_, p) in pieces(width, height, full) {
             for (name, data) in channels {
                 let values: Vec<f32> = p
                     .iter()
@@ -226,6 +192,62 @@ impl Display {
                 let bytes = update_image(&title, name, p, &values);
                 self.send(&bytes);
             }
+        }
+    }
+}
+
+/// A display fed from a coordinator's previews (`farm submit
+/// --coordinator`, `farm watch`): it connects when the first preview says
+/// how large the image is, and never fails the render.
+#[derive(Debug)]
+pub struct LiveDisplay {
+    address: String,
+    title: String,
+    display: Option<Display>,
+    /// Set once connecting failed (reported once; nothing more is tried).
+    gave_up: bool,
+    /// Whether to print why the display is not shown.
+    quiet: bool,
+}
+
+impl LiveDisplay {
+    /// A display server at `address` for an image named `title`.
+    pub fn new(address: &str, title: &str, quiet: bool) -> Self {
+        LiveDisplay {
+            address: address.into(),
+            title: title.into(),
+            display: None,
+            gave_up: false,
+            quiet,
+        }
+    }
+
+    fn open(&mut self, width: i32, height: i32) -> Option<&mut Display> {
+        if self.display.is_none() && !self.gave_up {
+            match Display::connect(&self.address, &self.title, width, height) {
+                Ok(d) => self.display = Some(d),
+                Err(e) => {
+                    self.gave_up = true;
+                    if !self.quiet {
+                        eprintln!("warning: {e}; not streaming the image");
+                    }
+                }
+            }
+        }
+        self.display.as_mut().filter(|d| d.width == width && d.height == height)
+    }
+
+    /// Pieces of a `width`×`height` image as it renders.
+    pub fn pieces(&mut self, width: u32, height: u32, pieces: &[ImagePiece]) {
+        if let Some(d) = self.open(width as i32, height as i32) {
+            d.pieces(pieces);
+        }
+    }
+
+    /// The finished image and its error map.
+    pub fn finish(&mut self, image: &RgbImage, error: Option<&[f32]>) {
+        if let Some(d) = self.open(image.width as i32, image.height as i32) {
+            d.finish(image, error);
         }
     }
 }
@@ -246,17 +268,5 @@ mod tests {
         assert_eq!(u.len(), 4 + 1 + 1 + 2 + 2 + 16 + 8);
         assert_eq!(&u[4..10], &[UPDATE_IMAGE, 0, b't', 0, b'G', 0]);
         assert_eq!(f32::from_le_bytes(u[u.len() - 4..].try_into().unwrap()), 2.0);
-    }
-
-    #[test]
-    fn pieces_cover_a_region_once() {
-        let r = Bounds2i::new(Point2i::new(100, 0), Point2i::new(300, 10));
-        let p: Vec<Bounds2i> = pieces(300, 200, r).collect();
-        assert_eq!(p.len(), 3);
-        assert_eq!(p[2], Bounds2i::new(Point2i::new(256, 0), Point2i::new(300, 128)));
-        assert_eq!(
-            pieces(300, 200, Bounds2i::new(Point2i::new(400, 0), Point2i::new(500, 5))).count(),
-            0
-        );
     }
 }

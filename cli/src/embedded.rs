@@ -13,6 +13,7 @@ use farm_common::image::{self, ImageMetadata, RgbImage};
 use farm_common::scene::{SceneDescription, Warning};
 use farm_common::stats::RayStats;
 use farm_coordinator::estimate::ErrorEstimate;
+use farm_coordinator::live::LiveCursor;
 use farm_coordinator::scheduler::{
     Assignment, FinishedJob, JobSpec, JobUpdate, Outbox, Scheduler, SchedulerConfig,
 };
@@ -158,7 +159,6 @@ pub fn run_job<R>(
 where
     R: Fn(TileId) -> (FilmTile, RayStats) + Send + Sync + 'static,
 {
-    let geometry_bounds = geometry.cropped_pixel_bounds;
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(threads)
         .thread_name(|i| format!("farm-render-{i}"))
@@ -190,7 +190,7 @@ where
     sched.worker_joined(LOCAL_WORKER, "this process".into(), threads as u32, slots, now, &mut out);
     let job = sched.submit(spec, &mut out);
     let mut last_failure = String::new();
-    let mut display_cursor = 0;
+    let mut live = LiveCursor::new();
     loop {
         for update in out.updates.drain(..) {
             match update {
@@ -199,7 +199,7 @@ where
                 }
                 JobUpdate::Finished(f) => {
                     if let Some(d) = display.as_deref_mut() {
-                        show_final(d, &geometry_bounds, &f);
+                        d.finish(&f.image, f.error.as_ref().map(|e| e.per_pixel.as_slice()));
                     }
                     return Ok(f);
                 }
@@ -207,11 +207,8 @@ where
             }
         }
         if let (Some(d), Some(film)) = (display.as_deref_mut(), sched.film(job)) {
-            let (changed, next) = film.changes_since(display_cursor);
-            changed.iter().for_each(|r| d.changed(*r));
-            display_cursor = next;
             if d.due() {
-                d.flush(|r| film.preview(r));
+                d.pieces(&live.take(film, usize::MAX));
             }
         }
         if out.outstanding == 0 {
@@ -275,7 +272,8 @@ pub fn render_parsed(
     let t = Instant::now();
     let (geometry, spp) = (renderer.film.clone(), renderer.samples_per_pixel());
     let mut display = opts.display_server.as_deref().and_then(|address| {
-        Display::connect(address, &desc.name, geometry.cropped_pixel_bounds)
+        let b = geometry.cropped_pixel_bounds;
+        Display::connect(address, &desc.name, b.width(), b.height())
             .map_err(|e| {
                 warnings
                     .push(Warning { loc: None, message: format!("{e}; not streaming the image") })
@@ -299,26 +297,6 @@ pub fn render_parsed(
         scene_name: desc.name,
         warnings,
     })
-}
-
-/// Sends the finished image whole (so the display ends on the written
-/// bits), and the per-pixel error estimate as a second image.
-fn show_final(d: &mut Display, film: &farm_common::geometry::Bounds2i, f: &FinishedJob) {
-    d.changed(*film);
-    let (w, origin) = (f.image.width, film.min);
-    d.flush(|r| {
-        let (x0, y0) = ((r.min.x - origin.x) as usize, (r.min.y - origin.y) as usize);
-        let (rw, rh) = (r.width() as usize, r.height() as usize);
-        let pixels = (0..rh)
-            .flat_map(|y| (0..rw).map(move |x| (y0 + y) * w + x0 + x))
-            .map(|i| f.image.pixels.get(i).copied().unwrap_or([0.0; 3]))
-            .collect();
-        RgbImage { width: rw, height: rh, pixels }
-    });
-    if let Some(e) = &f.error {
-        let title = format!("{} relMSE", d.title().rsplit_once(" (").map_or(d.title(), |t| t.0));
-        d.show(&title, e.width as i32, e.height as i32, &[("relMSE", e.per_pixel.clone())]);
-    }
 }
 
 /// Writes a finished render to its output path.

@@ -10,8 +10,12 @@
 pub mod error;
 /// A render's estimate of its own error from its two half-images.
 pub mod estimate;
+/// The film as it renders, in changed pieces, for live watchers.
+pub mod live;
 /// Ordered merging of film tiles.
 pub mod merge;
+/// Prometheus metrics.
+pub mod metrics;
 /// The farm scheduler.
 pub mod scheduler;
 /// TLS, tokens and roles.
@@ -20,5 +24,7 @@ pub mod security;
 pub mod server;
 /// The journal and blob store in the state directory.
 pub mod state;
+/// The web dashboard and `/metrics`, on the gRPC port.
+pub mod web;
 
 pub use error::{Error, Result};

@@ -124,19 +124,46 @@ impl Film {
     /// written image is [`Film::image`]; this one's sums may be added in
     /// another order, so it can differ from it in the last bits.
     pub fn preview(&self, region: Bounds2i) -> RgbImage {
+        self.resolve(&self.preview_sums(region))
+    }
+
+    /// The sums behind [`Film::preview`]: the merged prefix plus the tiles
+    /// that arrived early, over `region` clipped to the film (the pending
+    /// tiles that meet it are few: a tile's bounds reach only its
+    /// neighbours).
+    pub fn preview_sums(&self, region: Bounds2i) -> FilmTile {
         let b = region.intersect(&self.geometry.cropped_pixel_bounds);
-        let (w, h) = (b.width().max(0) as usize, b.height().max(0) as usize);
-        if w == 0 || h == 0 {
-            return RgbImage { width: 0, height: 0, pixels: Vec::new() };
+        if b.is_empty() {
+            return FilmTile::new(Bounds2i::default());
         }
         let mut part = FilmTile::new(b);
         part.merge(&self.sums);
         for t in self.pending.values() {
-            part.merge(t);
+            if !t.pixel_bounds.intersect(&b).is_empty() {
+                part.merge(t);
+            }
+        }
+        part
+    }
+
+    /// Sums (over their own bounds) resolved to pixel values, as the image is.
+    pub fn resolve(&self, sums: &FilmTile) -> RgbImage {
+        let b = sums.pixel_bounds;
+        if b.is_empty() {
+            return RgbImage { width: 0, height: 0, pixels: Vec::new() };
         }
         let scale = self.geometry.scale;
-        let pixels = part.pixels.iter().map(|p| resolve(p, scale)).collect();
-        RgbImage { width: w, height: h, pixels }
+        let pixels = sums.pixels.iter().map(|p| resolve(p, scale)).collect();
+        RgbImage { width: b.width() as usize, height: b.height() as usize, pixels }
+    }
+
+    /// The per-pixel error estimate over some sums' bounds (`None` at one
+    /// sample per pixel), as [`Film::error_estimate`] computes it.
+    pub fn error_map(&self, sums: &FilmTile) -> Option<Vec<f32>> {
+        let g = &self.geometry;
+        let samples = Samples::of(g.independent_samples);
+        ErrorEstimate::from_pixels(sums.pixel_bounds, &sums.pixels, g.scale, samples)
+            .map(|e| e.per_pixel)
     }
 
     /// The image: weighted sums divided by weights, clamped at zero, times

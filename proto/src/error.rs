@@ -80,6 +80,22 @@ pub enum Error {
         /// The image's height.
         height: u32,
     },
+    /// A preview piece outside its image, or whose bytes do not fit it.
+    #[error("preview piece [{x0}, {x1}) × [{y0}, {y1}) does not fit a {width}×{height} image")]
+    PreviewPiece {
+        /// Its bounds.
+        x0: i32,
+        /// Its bounds.
+        y0: i32,
+        /// Its bounds.
+        x1: i32,
+        /// Its bounds.
+        y1: i32,
+        /// The image's width.
+        width: u32,
+        /// The image's height.
+        height: u32,
+    },
 }
 
 /// Results of decoding.

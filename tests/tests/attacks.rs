@@ -178,16 +178,19 @@ async fn a_client_cannot_open_watches_without_bound() {
     // Streams nobody reads (each may come to hold the finished image).
     let mut open = Vec::new();
     for _ in 0..MAX_WATCHES_PER_TOKEN {
-        let s = c.watch_job(v1::WatchJobRequest { job_id: job }).await.expect("watch");
+        let s = c.watch_job(v1::WatchJobRequest { job_id: job, live: false }).await.expect("watch");
         open.push(s.into_inner());
     }
-    let e = c.watch_job(v1::WatchJobRequest { job_id: job }).await.expect_err("one too many");
+    let e = c
+        .watch_job(v1::WatchJobRequest { job_id: job, live: false })
+        .await
+        .expect_err("one too many");
     assert_eq!(e.code(), tonic::Code::ResourceExhausted, "{e}");
     // Closing one frees its slot.
     drop(open.pop());
     let mut freed = None;
     for _ in 0..50 {
-        match c.watch_job(v1::WatchJobRequest { job_id: job }).await {
+        match c.watch_job(v1::WatchJobRequest { job_id: job, live: false }).await {
             Ok(s) => {
                 freed = Some(s);
                 break;

@@ -72,3 +72,41 @@ fn a_missing_display_server_is_a_warning_not_a_failure() {
         summary.warnings
     );
 }
+
+/// The image the fake tev ends showing, checked against `written`; returns
+/// how many updates it took.
+fn check_shown(seen: &farm_tests::fake_tev::Seen, summary: &submit::RenderSummary) -> usize {
+    assert!(seen.errors.is_empty(), "{:?}", seen.errors);
+    let (_, img) = seen.images.iter().find(|(t, _)| !t.contains("relMSE")).expect("the image");
+    assert_eq!(img.size, (summary.image.width, summary.image.height));
+    for (c, name) in ["R", "G", "B"].iter().enumerate() {
+        let written: Vec<f32> = summary.image.pixels.iter().map(|p| p[c]).collect();
+        assert!(
+            img.channels[*name].iter().zip(&written).all(|(a, b)| a.to_bits() == b.to_bits()),
+            "channel {name} differs"
+        );
+    }
+    let (_, err) = seen.images.iter().find(|(t, _)| t.contains("relMSE")).expect("the error map");
+    assert_eq!(err.channels["relMSE"], summary.error.as_ref().expect("an estimate").per_pixel);
+    img.updates
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 4)]
+async fn on_the_farm_tev_sees_the_image_as_it_renders_and_ends_on_the_written_one() {
+    use farm_cli::client::{self, RemoteOptions};
+    let cluster =
+        farm_tests::cluster::TestCluster::start(2, std::time::Duration::from_millis(500)).await;
+    let tev = FakeTev::start();
+    let opts = RemoteOptions {
+        spp: Some(64),
+        display_server: Some(tev.address.clone()),
+        ..Default::default()
+    };
+    let summary =
+        client::submit(&cluster.remote(), &scene(), &opts, |_, _| {}).await.expect("farm render");
+    let seen = tev.finish();
+    let updates = check_shown(&seen, &summary);
+    // The end alone sends 4×3 pieces × 3 channels; the rest came while it rendered.
+    assert!(updates > 36, "only {updates} updates: no live preview reached tev");
+    cluster.stop().await;
+}

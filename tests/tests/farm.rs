@@ -341,7 +341,8 @@ async fn a_job_whose_client_went_away_is_cancelled_unless_detached() {
     // A third is watched throughout, and so is kept.
     let watched = submit(false).await;
     let mut c = client::connect(&remote).await.expect("connect");
-    let _watch = c.watch_job(v1::WatchJobRequest { job_id: watched }).await.expect("watch");
+    let _watch =
+        c.watch_job(v1::WatchJobRequest { job_id: watched, live: false }).await.expect("watch");
     tokio::time::sleep(Duration::from_millis(1500)).await;
     let status = client::status(&remote).await.expect("status");
     let state = |id| status.jobs.iter().find(|j| j.job_id == id).expect("job").state.clone();

@@ -153,7 +153,7 @@ async fn clients_see_and_cancel_only_their_own_jobs() {
     assert!(client::status(&bob).await.expect("status").jobs.is_empty(), "bob sees alice's job");
     assert_eq!(code(client::cancel(&bob, id).await), tonic::Code::PermissionDenied);
     let mut c = connect(&bob.url, bob.token.as_ref()).await.expect("connect");
-    let watch = c.watch_job(v1::WatchJobRequest { job_id: id }).await.map(|_| ());
+    let watch = c.watch_job(v1::WatchJobRequest { job_id: id, live: false }).await.map(|_| ());
     assert_eq!(watch.unwrap_err().code(), tonic::Code::PermissionDenied);
     // The admin sees it with its owner, and Alice may cancel it.
     assert_eq!(client::status(&admin).await.expect("status").jobs[0].owner, "first client");

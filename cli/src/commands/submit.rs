@@ -41,7 +41,7 @@ pub struct SubmitArgs {
     #[arg(long)]
     pub quick: bool,
     /// Stream the image to this display server as it renders (tev, which
-    /// listens on port 14158; pbrt-v4's flag). Embedded renders only, for now.
+    /// listens on port 14158; pbrt-v4's flag), embedded or on the farm.
     #[arg(long, value_name = "HOST:PORT")]
     pub display_server: Option<String>,
     /// Print nothing but errors.
@@ -157,9 +157,6 @@ struct Parsed {
 }
 
 async fn run_remote(args: &SubmitArgs, scene: Parsed) -> ExitCode {
-    if args.display_server.is_some() && !args.quiet {
-        eprintln!("warning: --display-server streams embedded renders only for now; ignored with --coordinator");
-    }
     let token = match args.token.token() {
         Ok(t) => t,
         Err(e) => return fail(&e),
@@ -173,6 +170,8 @@ async fn run_remote(args: &SubmitArgs, scene: Parsed) -> ExitCode {
         detach: args.detach,
         reconnect_for: reconnect_for(args.reconnect_for),
         overrides: overrides(args),
+        display_server: args.display_server.clone(),
+        quiet: args.quiet,
     };
     if args.detach {
         let Parsed { file, desc, warnings, start } = scene;

@@ -18,6 +18,9 @@ pub struct WatchArgs {
     /// Print nothing but errors.
     #[arg(short, long)]
     pub quiet: bool,
+    /// Stream the image to this display server (tev) as it renders.
+    #[arg(long, value_name = "HOST:PORT")]
+    pub display_server: Option<String>,
     /// Seconds to keep reconnecting to a coordinator that went away.
     #[arg(long, value_name = "SECONDS", default_value_t = 600.0)]
     pub reconnect_for: f64,
@@ -35,9 +38,18 @@ pub async fn run(args: WatchArgs) -> ExitCode {
     let bar = crate::progress::progress_bar(args.quiet);
     let job = args.job;
     let reconnect = super::submit::reconnect_for(args.reconnect_for);
-    let result = crate::client::follow(&remote, job, None, reconnect, |p| {
-        super::submit::show_progress(&bar, job, p)
-    })
+    let mut display = args
+        .display_server
+        .as_deref()
+        .map(|a| crate::display::LiveDisplay::new(a, &format!("job {job}"), args.quiet));
+    let result = crate::client::follow_live(
+        &remote,
+        job,
+        None,
+        reconnect,
+        |p| super::submit::show_progress(&bar, job, p),
+        display.as_mut(),
+    )
     .await;
     bar.finish_and_clear();
     let done = match result {

@@ -21,6 +21,18 @@ pub struct RgbImage {
     pub pixels: Vec<[f32; 3]>,
 }
 
+/// A piece of a larger image, as a live display is sent it.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ImagePiece {
+    /// Where it is in the image (the image's top-left pixel at 0, 0).
+    pub bounds: crate::geometry::Bounds2i,
+    /// Its pixels, row-major.
+    pub image: RgbImage,
+    /// The render's per-pixel estimate of its own relMSE over it, where
+    /// the render has one yet.
+    pub error: Option<Vec<f32>>,
+}
+
 /// Facts about a render stored with the image where the format allows.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct ImageMetadata {

@@ -92,6 +92,8 @@ pub(super) struct Job {
     pub(super) finished: Option<std::sync::Arc<FinishedJob>>,
     /// When it ended (seconds since the epoch), for its retention.
     pub(super) ended_at: Option<i64>,
+    /// A finished job's estimate of its own relMSE.
+    pub(super) rel_mse: Option<f64>,
 }
 
 impl Job {
@@ -113,6 +115,7 @@ impl Job {
             last_progress: Instant::now(),
             finished: None,
             ended_at: None,
+            rel_mse: None,
         }
     }
 }
@@ -393,6 +396,9 @@ impl Scheduler {
         let fails = j.failures.entry(tile).or_default();
         fails.push((worker, format!("{name}: {message}")));
         *j.worker_failures.entry(worker).or_default() += 1;
+        if let Some(w) = self.workers.get_mut(&worker) {
+            w.failures += 1;
+        }
         let distinct: HashSet<WorkerId> = fails.iter().map(|(w, _)| *w).collect();
         if !retryable || distinct.len() >= max_tile {
             let msgs: Vec<String> = fails.iter().map(|(_, m)| m.clone()).collect();
@@ -443,6 +449,7 @@ impl Scheduler {
             stats: j.stats,
         });
         j.state = JobState::Done;
+        j.rel_mse = finished.error.as_ref().map(|e| e.rel_mse);
         j.ended_at = Some(crate::state::unix_now());
         out.record(Record::Ended { job, state: &j.state, image: Some(&finished) });
         // With a journal the image is read back from it: memory does not

@@ -13,10 +13,12 @@ mod outbox;
 mod restore;
 #[cfg(test)]
 mod tests;
+mod views;
 mod workers;
 
 pub use jobs::{JobRow, JobSpec, JobState, Owner, Snapshot};
 pub use outbox::{Assignment, FinishedJob, JobUpdate, Outbox, Record};
+pub use views::{Gauges, JobView, WorkerView};
 pub use workers::WorkerRow;
 
 use farm_common::ids::{JobId, WorkerId};

@@ -13,6 +13,10 @@ pub(super) struct Worker {
     pub(super) in_flight: HashSet<(JobId, u32)>,
     pub(super) last_seen: Instant,
     pub(super) tiles_done: u64,
+    /// When it joined.
+    pub(super) joined: Instant,
+    /// Tiles it failed or sent back malformed.
+    pub(super) failures: u64,
 }
 
 /// A worker row of `farm status`.
@@ -52,6 +56,8 @@ impl Scheduler {
             in_flight: HashSet::new(),
             last_seen: now,
             tiles_done: 0,
+            joined: now,
+            failures: 0,
         };
         self.workers.insert(id, w);
         self.ready.insert(id);

@@ -2,17 +2,22 @@
 
 use super::ServerConfig;
 use crate::error::Error;
+use crate::live::LiveCursor;
+use crate::metrics::{Metrics, StateLabel, JOB_STATES};
 use crate::scheduler::{
     Assignment, JobRow, JobSpec, JobUpdate, Outbox, Record, Scheduler, Snapshot, WorkerRow,
 };
+use crate::scheduler::{FinishedJob, JobView, WorkerView};
 use crate::state::{unix_now, BlobStore, Command, Journal, SavedJob};
 use farm_common::film::FilmTile;
 use farm_common::ids::{JobId, TileAttempt, TileId, WorkerId};
+use farm_common::image::ImagePiece;
 use farm_common::stats::RayStats;
-use farm_proto::convert::{image_chunks, ImageFacts};
+use farm_proto::convert::{encode_preview, image_chunks, ImageFacts};
 use farm_proto::v1::{self, coordinator_message, job_event, tile_result, worker_message};
 use prost::Message;
 use std::collections::HashMap;
+use std::sync::Arc;
 use std::time::{Duration, Instant};
 use tokio::sync::{mpsc, oneshot};
 use tonic::Status;
@@ -22,6 +27,13 @@ use tracing::warn;
 pub type WorkerTx = mpsc::UnboundedSender<Result<v1::CoordinatorMessage, Status>>;
 /// Messages to a WatchJob stream.
 pub type WatchTx = mpsc::UnboundedSender<Result<v1::JobEvent, Status>>;
+/// Live previews to a WatchJob stream: bounded, so a reader that falls
+/// behind is sent less, not queued more.
+pub type LiveTx = mpsc::Sender<Result<v1::JobEvent, Status>>;
+
+/// Pieces (of at most 128×128 pixels, 250 KiB with the error map) in one
+/// preview event: about 4 MiB.
+const PIECES_PER_EVENT: usize = 16;
 
 /// Everything the event loop reacts to.
 pub enum Event {
@@ -63,6 +75,8 @@ pub enum Event {
         job: JobId,
         /// Its event stream.
         tx: WatchTx,
+        /// Where its previews go, if it asked for them.
+        live: Option<LiveTx>,
         /// Whether the job exists.
         reply: oneshot::Sender<bool>,
     },
@@ -85,18 +99,78 @@ pub enum Event {
         /// Its owner, if the job exists.
         reply: oneshot::Sender<Option<crate::scheduler::Owner>>,
     },
+    /// The dashboard's listing.
+    Views {
+        /// Jobs and workers.
+        reply: oneshot::Sender<(Vec<JobView>, Vec<WorkerView>)>,
+    },
+    /// A dashboard page's look at a job's image since `from` changes.
+    Live {
+        /// The job.
+        job: JobId,
+        /// The page's cursor.
+        from: usize,
+        /// What there is to show.
+        reply: oneshot::Sender<LiveAnswer>,
+    },
+    /// The dashboard changes a job's priority.
+    Priority {
+        /// The job.
+        job: JobId,
+        /// The new priority.
+        priority: i32,
+        /// Whether the job was active.
+        reply: oneshot::Sender<bool>,
+    },
+    /// Set the metrics' gauges from the scheduler (before a scrape).
+    Gauges {
+        /// Done.
+        reply: oneshot::Sender<()>,
+    },
     /// Time passes: find silent workers.
     Tick,
+    /// Time to send live watchers what changed.
+    LiveTick,
     /// Stop: fail unfinished jobs and close every stream.
     Shutdown,
+}
+
+/// What a dashboard page is shown of a job's image.
+#[derive(Debug)]
+pub enum LiveAnswer {
+    /// Running: the pieces changed since the page's cursor, and its next cursor.
+    Running {
+        /// Image width.
+        width: u32,
+        /// Image height.
+        height: u32,
+        /// The cursor to pass next time.
+        next: usize,
+        /// What changed.
+        pieces: Vec<ImagePiece>,
+    },
+    /// Done, with the image in memory.
+    Done(std::sync::Arc<FinishedJob>),
+    /// Done, with the image in the journal.
+    Stored,
+    /// Failed or cancelled: there is no image.
+    Ended,
+    /// No such job.
+    NoJob,
 }
 
 #[derive(Default)]
 struct GrpcOutbox {
     workers: HashMap<WorkerId, WorkerTx>,
     watchers: HashMap<JobId, Vec<WatchTx>>,
+    /// Watchers of the image as it renders, each with what it has seen.
+    live: HashMap<JobId, Vec<(LiveTx, LiveCursor)>>,
     /// Where changes are made durable, with a state directory.
     journal: Option<Journal>,
+    /// What is counted for `/metrics`.
+    metrics: Arc<Metrics>,
+    /// When each tile out was handed out (for the latency histogram).
+    handed: HashMap<TileAttempt, Instant>,
 }
 
 fn rpc_stats(s: &RayStats) -> Option<v1::RayStats> {
@@ -128,8 +202,22 @@ pub(crate) fn job_events(update: &JobUpdate) -> Vec<v1::JobEvent> {
     }
 }
 
+impl GrpcOutbox {
+    /// A worker answered hand-out `key`: its latency is observed.
+    fn answered(&mut self, key: &TileAttempt, now: Instant) {
+        if let Some(t) = self.handed.remove(key) {
+            self.metrics.tile_latency.observe(now.duration_since(t).as_secs_f64());
+        }
+    }
+}
+
 impl Outbox for GrpcOutbox {
     fn assign(&mut self, worker: WorkerId, a: Assignment) {
+        self.metrics.tiles_dispatched.inc();
+        if a.attempt > 0 {
+            self.metrics.tiles_retried.inc();
+        }
+        self.handed.insert(a.key(), Instant::now());
         let msg = v1::CoordinatorMessage {
             kind: Some(coordinator_message::Kind::Assign(v1::TileAssignment {
                 job_id: a.job.0,
@@ -167,10 +255,16 @@ impl Outbox for GrpcOutbox {
         }
         if final_update {
             self.watchers.remove(&job);
+            self.live.remove(&job);
+            self.handed.retain(|k, _| k.job != job);
         }
     }
 
     fn record(&mut self, change: Record<'_>) {
+        if let Record::Merged { stats, .. } = &change {
+            self.metrics.tiles_merged.inc();
+            self.metrics.add_rays(stats);
+        }
         if let Some(journal) = &self.journal {
             journal.record(change);
         }
@@ -197,6 +291,8 @@ pub struct LoopState {
     pub jobs: Vec<SavedJob>,
     /// The next job's id.
     pub next_job: u64,
+    /// What is counted for `/metrics`.
+    pub metrics: Arc<Metrics>,
 }
 
 /// Streams a finished job's image from the journal to a watcher.
@@ -227,7 +323,10 @@ fn send_stored(journal: &Journal, job: JobId, tx: WatchTx) {
 /// Runs the scheduler until the channel closes or `Shutdown` arrives.
 pub async fn run(mut rx: mpsc::UnboundedReceiver<Event>, config: ServerConfig, state: LoopState) {
     let mut sched = Scheduler::new(config.scheduler.clone());
-    let mut out = GrpcOutbox { journal: state.journal, ..Default::default() };
+    let mut out =
+        GrpcOutbox { journal: state.journal, metrics: state.metrics, ..Default::default() };
+    let mut estimates: HashMap<JobId, (Instant, Option<f64>)> = HashMap::new();
+    let mut rays_at: (Instant, u64) = (Instant::now(), 0);
     sched.set_next_job(state.next_job);
     for job in state.jobs {
         sched.restore(job, &mut out);
@@ -247,9 +346,12 @@ pub async fn run(mut rx: mpsc::UnboundedReceiver<Event>, config: ServerConfig, s
                 sched.heard_from(id, now);
                 match msg {
                     FromWorker::Tile { key, film_tile, stats } => {
+                        out.answered(&key, now);
                         sched.tile_done(id, key, film_tile, stats, &mut out)
                     }
                     FromWorker::Failed { key, message, retryable } => {
+                        out.answered(&key, now);
+                        out.metrics.tiles_failed.inc();
                         sched.tile_failed(id, key, message, retryable, &mut out)
                     }
                     FromWorker::Alive => {}
@@ -263,7 +365,7 @@ pub async fn run(mut rx: mpsc::UnboundedReceiver<Event>, config: ServerConfig, s
                 let id = sched.submit(spec, &mut out);
                 let _ = reply.send(id);
             }
-            Event::Watch { job, tx, reply } => match sched.snapshot(job) {
+            Event::Watch { job, tx, live, reply } => match sched.snapshot(job) {
                 Some(Snapshot::Stored) => {
                     match &out.journal {
                         Some(j) => send_stored(j, job, tx),
@@ -280,6 +382,9 @@ pub async fn run(mut rx: mpsc::UnboundedReceiver<Event>, config: ServerConfig, s
                     }
                     if !last {
                         out.watchers.entry(job).or_default().push(tx);
+                        if let Some(live) = live {
+                            out.live.entry(job).or_default().push((live, LiveCursor::new()));
+                        }
                     }
                     let _ = reply.send(true);
                 }
@@ -287,6 +392,37 @@ pub async fn run(mut rx: mpsc::UnboundedReceiver<Event>, config: ServerConfig, s
                     let _ = reply.send(false);
                 }
             },
+            Event::LiveTick => send_live(&sched, &mut out),
+            Event::Views { reply } => {
+                estimates.retain(|j, (t, _)| {
+                    now.duration_since(*t) < ESTIMATE_EVERY && sched.film(*j).is_some()
+                });
+                let views = sched.views(now, |job, film| {
+                    estimates
+                        .entry(job)
+                        .or_insert_with(|| (now, film.error_estimate().map(|e| e.rel_mse)))
+                        .1
+                });
+                let _ = reply.send(views);
+            }
+            Event::Live { job, from, reply } => {
+                let _ = reply.send(live_answer(&sched, job, from));
+            }
+            Event::Priority { job, priority, reply } => {
+                let _ = reply.send(sched.set_priority(job, priority, &mut out));
+            }
+            Event::Gauges { reply } => {
+                let g = sched.gauges();
+                let m = &out.metrics;
+                for s in JOB_STATES {
+                    let n = g.jobs.get(s).copied().unwrap_or(0);
+                    m.jobs.get_or_create(&StateLabel { state: s.into() }).set(n);
+                }
+                m.queue_depth.set(g.queue_depth);
+                m.workers.set(g.workers);
+                m.blob_bytes.set(blobs.total_bytes() as i64);
+                let _ = reply.send(());
+            }
             Event::Status { reply } => {
                 let _ = reply.send(sched.status());
             }
@@ -297,6 +433,12 @@ pub async fn run(mut rx: mpsc::UnboundedReceiver<Event>, config: ServerConfig, s
                 let _ = reply.send(sched.owner(job).cloned());
             }
             Event::Tick => {
+                let total = out.metrics.total_rays();
+                let secs = now.duration_since(rays_at.0).as_secs_f64();
+                if secs > 0.0 {
+                    out.metrics.rays_per_second.set((total - rays_at.1) as f64 / secs);
+                }
+                rays_at = (now, total);
                 sched.tick(now, &mut out);
                 cancel_unwatched(&mut sched, &mut out, &mut unwatched, now, config.client_grace);
                 if last_purge.is_none_or(|t| now.duration_since(t) >= PURGE_EVERY) {
@@ -323,6 +465,57 @@ pub async fn run(mut rx: mpsc::UnboundedReceiver<Event>, config: ServerConfig, s
             }
         }
     }
+}
+
+/// How long a running job's estimated relMSE is reused by the dashboard
+/// (computing it reads the whole film).
+const ESTIMATE_EVERY: Duration = Duration::from_secs(2);
+
+/// What a dashboard page at cursor `from` is shown of `job`.
+fn live_answer(sched: &Scheduler, job: JobId, from: usize) -> LiveAnswer {
+    if let Some(film) = sched.film(job) {
+        let b = film.geometry().cropped_pixel_bounds;
+        let mut cursor = LiveCursor::at(from);
+        let pieces = cursor.take(film, usize::MAX);
+        return LiveAnswer::Running {
+            width: b.width() as u32,
+            height: b.height() as u32,
+            next: cursor.position(),
+            pieces,
+        };
+    }
+    match sched.snapshot(job) {
+        None => LiveAnswer::NoJob,
+        Some(Snapshot::Stored) => LiveAnswer::Stored,
+        Some(Snapshot::Update(JobUpdate::Finished(f))) => LiveAnswer::Done(f),
+        Some(Snapshot::Update(_)) => LiveAnswer::Ended,
+    }
+}
+
+/// Sends each live watcher the pieces that changed since it last took
+/// some, if it has room for them: one event a tick at most, so a reader
+/// that falls behind is sent larger catch-ups, never a queue.
+fn send_live(sched: &Scheduler, out: &mut GrpcOutbox) {
+    out.live.retain(|job, list| {
+        let Some(film) = sched.film(*job) else { return false };
+        let b = film.geometry().cropped_pixel_bounds;
+        list.retain_mut(|(tx, cursor)| {
+            if tx.is_closed() {
+                return false;
+            }
+            if tx.capacity() == 0 {
+                return true;
+            }
+            let pieces = cursor.take(film, PIECES_PER_EVENT);
+            if pieces.is_empty() {
+                return true;
+            }
+            let preview = encode_preview(b.width() as u32, b.height() as u32, &pieces);
+            let ev = v1::JobEvent { kind: Some(job_event::Kind::Preview(preview)) };
+            !matches!(tx.try_send(Ok(ev)), Err(mpsc::error::TrySendError::Closed(_)))
+        });
+        !list.is_empty()
+    });
 }
 
 /// Cancels each job whose client went away: not detached, and with no

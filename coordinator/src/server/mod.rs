@@ -22,6 +22,10 @@ use tonic::service::interceptor::InterceptedService;
 use tonic::transport::server::TcpIncoming;
 use tonic::transport::{Identity, ServerTlsConfig};
 
+/// How often live watchers are sent what changed (pbrt-v4 updates tev
+/// every 250 ms).
+pub const LIVE_EVERY: Duration = Duration::from_millis(250);
+
 /// Settings of a coordinator.
 #[derive(Clone, Debug)]
 pub struct ServerConfig {
@@ -75,11 +79,14 @@ pub async fn serve(
     let state = State::open(&config.state)?;
     let blobs = state.blobs.clone();
     let durable = config.state.dir.is_some();
+    let metrics = std::sync::Arc::new(crate::metrics::Metrics::new());
+    let journal = durable.then(|| state.journal.clone());
     let loop_state = events::LoopState {
-        journal: durable.then(|| state.journal.clone()),
+        journal: journal.clone(),
         blobs: blobs.clone(),
         jobs: state.jobs,
         next_job: state.next_job,
+        metrics: metrics.clone(),
     };
     // The lock on the state directory is held until the server stops.
     let _lock = state.lock;
@@ -93,6 +100,19 @@ pub async fn serve(
             loop {
                 t.tick().await;
                 if events.send(Event::Tick).is_err() {
+                    break;
+                }
+            }
+        })
+    };
+    let live_ticker = {
+        let events = events.clone();
+        tokio::spawn(async move {
+            let mut t = tokio::time::interval(LIVE_EVERY);
+            t.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Delay);
+            loop {
+                t.tick().await;
+                if events.send(Event::LiveTick).is_err() {
                     break;
                 }
             }
@@ -112,15 +132,23 @@ pub async fn serve(
     // Every call of the farm's service is authenticated first; the health
     // service answers anyone (probes carry no token).
     let grpc = InterceptedService::new(grpc, Authenticate(config.security.clone()));
+    let web = crate::web::router(crate::web::Web {
+        events: events.clone(),
+        security: config.security.clone(),
+        metrics,
+        journal,
+    });
     let stop_events = events.clone();
-    let mut builder = tonic::transport::Server::builder();
+    // HTTP/1.1 too, for browsers on a plaintext (loopback) coordinator;
+    // over TLS they speak HTTP/2 like gRPC does.
+    let mut builder = tonic::transport::Server::builder().accept_http1(true);
     if let Security::Tls { identity, .. } = &config.security {
         let id = Identity::from_pem(&identity.chain_pem, &identity.key_pem);
         builder = builder.tls_config(ServerTlsConfig::new().identity(id))?;
     }
+    let routes = tonic::service::Routes::from(web).add_service(health_service).add_service(grpc);
     let result = builder
-        .add_service(health_service)
-        .add_service(grpc)
+        .add_routes(routes)
         // Tiles and assignments are small messages: no Nagle delays.
         .serve_with_incoming_shutdown(TcpIncoming::from(listener).with_nodelay(Some(true)), async {
             // Stop on request, or if the scheduler's loop ever dies: a
@@ -137,6 +165,7 @@ pub async fn serve(
         })
         .await;
     ticker.abort();
+    live_ticker.abort();
     let _ = events.send(Event::Shutdown);
     drop(events);
     let loop_result = if loop_task.is_finished() { Ok(()) } else { loop_task.await };

@@ -54,6 +54,9 @@ pub const MAX_WATCHES_PER_TOKEN: u32 = 16;
 /// A WatchJob stream that gives its token's slot back when it ends.
 struct Watched {
     inner: Option<UnboundedReceiverStream<Result<v1::JobEvent, Status>>>,
+    /// Previews, for a live watcher: taken before the events, and over when
+    /// the events are.
+    live: Option<ReceiverStream<Result<v1::JobEvent, Status>>>,
     slots: Arc<Mutex<HashMap<String, u32>>>,
     token: String,
 }
@@ -64,6 +67,11 @@ impl Stream for Watched {
         mut self: Pin<&mut Self>,
         cx: &mut std::task::Context<'_>,
     ) -> std::task::Poll<Option<Self::Item>> {
+        if let Some(live) = &mut self.live {
+            if let std::task::Poll::Ready(Some(ev)) = Pin::new(live).poll_next(cx) {
+                return std::task::Poll::Ready(Some(ev));
+            }
+        }
         match &mut self.inner {
             Some(s) => Pin::new(s).poll_next(cx),
             None => std::task::Poll::Ready(None),
@@ -388,7 +396,8 @@ impl Coordinator for CoordinatorService {
         req: Request<v1::WatchJobRequest>,
     ) -> Result<Response<Self::WatchJobStream>, Status> {
         let by = require(&req, Action::Submit)?;
-        let job = JobId(req.into_inner().job_id);
+        let r = req.into_inner();
+        let job = JobId(r.job_id);
         self.check_owner(&by, job).await?;
         let mut slot = {
             let mut m = self.watches.lock().unwrap_or_else(|p| p.into_inner());
@@ -398,11 +407,19 @@ impl Coordinator for CoordinatorService {
                 return Err(Error::TooManyWatches(MAX_WATCHES_PER_TOKEN).into());
             }
             *n += 1;
-            Watched { inner: None, slots: self.watches.clone(), token: by.id.clone() }
+            Watched { inner: None, live: None, slots: self.watches.clone(), token: by.id.clone() }
         };
         let (tx, rx) = mpsc::unbounded_channel();
+        // One preview waiting at most: the loop sends the next only once
+        // this reader has taken it.
+        let (live, live_rx) = if r.live {
+            let (t, r) = mpsc::channel(1);
+            (Some(t), Some(ReceiverStream::new(r)))
+        } else {
+            (None, None)
+        };
         let (reply, known) = oneshot::channel();
-        self.send(Event::Watch { job, tx, reply })?;
+        self.send(Event::Watch { job, tx, live, reply })?;
         // No answer at all means the event loop has stopped: the
         // coordinator is shutting down, which is not the same as "no job".
         // (The slot is given back if this fails: `slot` is dropped.)
@@ -410,6 +427,7 @@ impl Coordinator for CoordinatorService {
             return Err(Error::NoJob(job.0).into());
         }
         slot.inner = Some(UnboundedReceiverStream::new(rx));
+        slot.live = live_rx;
         Ok(Response::new(Box::pin(slot)))
     }
 

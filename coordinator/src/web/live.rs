@@ -1,0 +1,192 @@
+//! `/api/jobs/ID/live?from=N`: what a job page draws. The page keeps a
+//! cursor into the film's changes (see [`crate::live`]) and is sent, as
+//! 8-bit RGBA ready for a canvas, the pieces changed since it, and the
+//! error map's pieces beside them. All numbers little-endian:
+//!
+//! ```text
+//! u32 width, u32 height, u32 next cursor, u32 state (0 running, 1 done, 2 ended without an image),
+//! u32 piece count, then per piece:
+//!   u32 x0, u32 y0, u32 w, u32 h, u32 has error map (0 or 1),
+//!   w·h·4 bytes of image, then w·h·4 bytes of error map if it has one
+//! ```
+
+use super::{may_touch, Caller, Web};
+use crate::server::events::{Event, LiveAnswer};
+use crate::state::Command;
+use axum::body::Body;
+use axum::extract::{Path, Query, State};
+use axum::http::{header, HeaderValue, StatusCode};
+use axum::response::{IntoResponse, Response};
+use farm_common::geometry::{Bounds2i, Point2i};
+use farm_common::ids::JobId;
+use farm_common::image::{ImagePiece, RgbImage};
+use farm_proto::convert::ImageAssembler;
+use prost::Message;
+
+#[derive(serde::Deserialize)]
+pub(super) struct From {
+    #[serde(default)]
+    from: usize,
+}
+
+/// Linear to an 8-bit sRGB code value (clamped to [0, 1]).
+pub fn srgb8(v: f32) -> u8 {
+    let v = if v.is_finite() { v.clamp(0.0, 1.0) } else { 0.0 };
+    let s = if v <= 0.003_130_8 { 12.92 * v } else { 1.055 * v.powf(1.0 / 2.4) - 0.055 };
+    (s * 255.0 + 0.5) as u8
+}
+
+/// A relMSE estimate as a colour: log scale from 1e-5 (black) through
+/// purple, orange and yellow to 1 and above (white).
+pub fn heat(e: f32) -> [u8; 3] {
+    const STOPS: [[f32; 3]; 5] =
+        [[0.0, 0.0, 0.0], [0.34, 0.06, 0.43], [0.87, 0.32, 0.23], [0.99, 0.8, 0.15], [1.0; 3]];
+    let t = if e > 0.0 && e.is_finite() { ((e.log10() + 5.0) / 5.0).clamp(0.0, 1.0) } else { 0.0 };
+    let x = t * (STOPS.len() - 1) as f32;
+    let i = (x as usize).min(STOPS.len() - 2);
+    let f = x - i as f32;
+    let c = |k: usize| ((STOPS[i][k] * (1.0 - f) + STOPS[i + 1][k] * f) * 255.0 + 0.5) as u8;
+    [c(0), c(1), c(2)]
+}
+
+fn put(out: &mut Vec<u8>, v: u32) {
+    out.extend_from_slice(&v.to_le_bytes());
+}
+
+/// The binary answer (see the module documentation).
+pub fn encode(width: u32, height: u32, next: usize, state: u32, pieces: &[ImagePiece]) -> Vec<u8> {
+    let mut out = Vec::new();
+    for v in [width, height, next as u32, state, pieces.len() as u32] {
+        put(&mut out, v);
+    }
+    for p in pieces {
+        let b = p.bounds;
+        for v in [b.min.x, b.min.y, b.width(), b.height()] {
+            put(&mut out, v as u32);
+        }
+        put(&mut out, u32::from(p.error.is_some()));
+        for px in &p.image.pixels {
+            out.extend_from_slice(&[srgb8(px[0]), srgb8(px[1]), srgb8(px[2]), 255]);
+        }
+        if let Some(e) = &p.error {
+            for v in e {
+                let [r, g, b] = heat(*v);
+                out.extend_from_slice(&[r, g, b, 255]);
+            }
+        }
+    }
+    out
+}
+
+/// A finished image as pieces of at most 128×128 (the same the live
+/// pieces are).
+fn whole(image: &RgbImage, error: Option<&[f32]>) -> Vec<ImagePiece> {
+    let (w, h) = (image.width as i32, image.height as i32);
+    let full = Bounds2i::new(Point2i::new(0, 0), Point2i::new(w, h));
+    crate::live::pieces(w, h, full)
+        .map(|(_, b)| {
+            let idx: Vec<usize> = b.iter().map(|q| (q.y * w + q.x) as usize).collect();
+            let pixels = idx.iter().map(|&i| image.pixels[i]).collect();
+            let img = RgbImage { width: b.width() as usize, height: b.height() as usize, pixels };
+            let err =
+                error.map(|e| idx.iter().map(|&i| e.get(i).copied().unwrap_or(0.0)).collect());
+            ImagePiece { bounds: b, image: img, error: err }
+        })
+        .collect()
+}
+
+fn binary(bytes: Vec<u8>) -> Response {
+    let mut r = Response::new(Body::from(bytes));
+    r.headers_mut()
+        .insert(header::CONTENT_TYPE, HeaderValue::from_static("application/octet-stream"));
+    r.headers_mut().insert(header::CACHE_CONTROL, HeaderValue::from_static("no-store"));
+    r
+}
+
+/// A finished image read back from the journal.
+async fn stored(web: &Web, job: JobId) -> Option<(RgbImage, Option<Vec<f32>>)> {
+    let journal = web.journal.as_ref()?;
+    let (reply, rx) = tokio::sync::oneshot::channel();
+    journal.send(Command::ReadImage { job: job.0, reply });
+    let mut asm = ImageAssembler::default();
+    for bytes in rx.await.ok()? {
+        let ev = farm_proto::v1::JobEvent::decode(bytes.as_slice()).ok()?;
+        if let Some(farm_proto::v1::job_event::Kind::Image(img)) = ev.kind {
+            if let Some(done) = asm.add(&img).ok()? {
+                return Some((done.image, done.error.map(|e| e.0)));
+            }
+        }
+    }
+    None
+}
+
+pub(super) async fn live(
+    State(web): State<Web>,
+    axum::Extension(caller): axum::Extension<Caller>,
+    Path(id): Path<u64>,
+    Query(q): Query<From>,
+) -> Response {
+    let job = JobId(id);
+    match may_touch(&web, &caller, job).await {
+        None => return super::shutting_down(),
+        Some(false) => return (StatusCode::NOT_FOUND, "no such job of yours").into_response(),
+        Some(true) => {}
+    }
+    let Some(answer) = super::ask(&web, |reply| Event::Live { job, from: q.from, reply }).await
+    else {
+        return super::shutting_down();
+    };
+    let done = |image: &RgbImage, error: Option<&[f32]>| {
+        let (w, h) = (image.width as u32, image.height as u32);
+        binary(encode(w, h, 0, 1, &whole(image, error)))
+    };
+    match answer {
+        LiveAnswer::Running { width, height, next, pieces } => {
+            binary(encode(width, height, next, 0, &pieces))
+        }
+        LiveAnswer::Done(f) => done(&f.image, f.error.as_ref().map(|e| e.per_pixel.as_slice())),
+        LiveAnswer::Stored => match stored(&web, job).await {
+            Some((image, error)) => done(&image, error.as_deref()),
+            None => binary(encode(0, 0, 0, 2, &[])),
+        },
+        LiveAnswer::Ended => binary(encode(0, 0, 0, 2, &[])),
+        LiveAnswer::NoJob => (StatusCode::NOT_FOUND, "no such job of yours").into_response(),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn tone_and_heat_maps_are_monotone_and_bounded() {
+        assert_eq!(srgb8(0.0), 0);
+        assert_eq!(srgb8(1.0), 255);
+        assert_eq!(srgb8(7.0), 255);
+        assert_eq!(srgb8(f32::NAN), 0);
+        assert_eq!(srgb8(0.5), 188, "sRGB's curve");
+        let lum = |c: [u8; 3]| c.iter().map(|&v| u32::from(v)).sum::<u32>();
+        let mut last = 0;
+        for k in -6..=1 {
+            let l = lum(heat(10f32.powi(k)));
+            assert!(l >= last, "heat not monotone at 1e{k}");
+            last = l;
+        }
+        assert_eq!(heat(0.0), [0, 0, 0]);
+        assert_eq!(heat(10.0), [255, 255, 255]);
+    }
+
+    #[test]
+    fn the_binary_answer_has_the_documented_layout() {
+        let b = Bounds2i::new(Point2i::new(2, 3), Point2i::new(4, 4));
+        let image = RgbImage { width: 2, height: 1, pixels: vec![[1.0, 0.0, 0.0], [0.0; 3]] };
+        let p = ImagePiece { bounds: b, image, error: Some(vec![1.0, 0.0]) };
+        let bytes = encode(10, 5, 7, 0, &[p]);
+        let u = |i: usize| u32::from_le_bytes(bytes[i * 4..i * 4 + 4].try_into().unwrap());
+        assert_eq!([u(0), u(1), u(2), u(3), u(4)], [10, 5, 7, 0, 1]);
+        assert_eq!([u(5), u(6), u(7), u(8), u(9)], [2, 3, 2, 1, 1]);
+        assert_eq!(&bytes[40..48], &[255, 0, 0, 255, 0, 0, 0, 255]);
+        assert_eq!(&bytes[48..52], &[255, 255, 255, 255]);
+        assert_eq!(bytes.len(), 40 + 8 + 8);
+    }
+}
