@@ -84,15 +84,22 @@ impl TestCluster {
 
     /// Starts one more worker (one render thread).
     pub fn add_worker(&mut self) {
-        let config = WorkerConfig {
+        self.add_worker_with(|_| {});
+    }
+
+    /// Starts one more worker (one render thread), its settings changed by `change`.
+    pub fn add_worker_with(&mut self, change: impl FnOnce(&mut WorkerConfig)) {
+        let mut config = WorkerConfig {
             coordinator: self.url.clone(),
             threads: 1,
             name: format!("test-worker-{}", self.workers.len()),
             max_in_flight: 0,
             health_listen: None,
+            metrics_listen: None,
             reconnect: false,
             token: self.token("worker"),
         };
+        change(&mut config);
         self.workers.push(tokio::spawn(async move {
             let _ = run(config, std::future::pending::<()>()).await;
         }));

@@ -10,6 +10,8 @@ pub mod fake;
 pub mod fake_tev;
 /// The bodies of the fuzz targets.
 pub mod fuzz;
+/// Plain HTTP/1.1 requests and the Prometheus text format.
+pub mod http;
 
 use farm_cli::embedded::{self as submit, RenderSummary, SubmitOptions};
 use farm_common::image::RgbImage;

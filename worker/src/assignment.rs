@@ -20,6 +20,8 @@ pub struct TileOutcome {
     pub result: Option<TileResult>,
     /// Whether the result holds a rendered film tile.
     pub rendered: bool,
+    /// Seconds from the assignment's arrival to this outcome.
+    pub seconds: f64,
 }
 
 /// Gets the assignment's renderer (building it if needed), then renders the
@@ -33,7 +35,9 @@ pub async fn render_tile(
     cancelled: Arc<AtomicBool>,
 ) -> TileOutcome {
     let (job_id, tile, attempt) = (a.job_id, a.tile, a.attempt);
+    let arrived = std::time::Instant::now();
     let outcome = |outcome: Option<Outcome>, stats: Option<v1::RayStats>| TileOutcome {
+        seconds: arrived.elapsed().as_secs_f64(),
         job_id,
         cancelled: cancelled.clone(),
         rendered: matches!(outcome, Some(Outcome::FilmTile(_))),

@@ -16,6 +16,8 @@ pub struct WorkerConfig {
     pub max_in_flight: u32,
     /// Where to serve `grpc.health.v1`, if anywhere.
     pub health_listen: Option<SocketAddr>,
+    /// Where to serve Prometheus `/metrics`, if anywhere.
+    pub metrics_listen: Option<SocketAddr>,
     /// Whether to keep re-registering after the coordinator goes away.
     pub reconnect: bool,
     /// The worker token (required with an https:// coordinator).
@@ -30,6 +32,7 @@ impl Default for WorkerConfig {
             name: "worker".to_string(),
             max_in_flight: 0,
             health_listen: None,
+            metrics_listen: None,
             reconnect: true,
             token: None,
         }

@@ -31,6 +31,15 @@ pub enum Error {
     /// The render pool could not start.
     #[error("cannot start the render pool: {0}")]
     Pool(#[from] rayon::ThreadPoolBuildError),
+    /// The metrics address could not be bound.
+    #[error("cannot serve metrics on {address}: {source}")]
+    Metrics {
+        /// The address asked for.
+        address: SocketAddr,
+        /// The bind error.
+        #[source]
+        source: std::io::Error,
+    },
     /// The health address could not be bound.
     #[error("cannot serve health checks on {address}: {source}")]
     Health {

@@ -15,6 +15,8 @@ pub mod config;
 pub mod error;
 /// The grpc.health.v1 service for probes.
 pub mod health;
+/// Prometheus `/metrics` of a worker.
+pub mod metrics;
 /// The tokio-to-rayon bridge for CPU-bound work.
 pub mod pool;
 /// Built renderers cached by scene and spp.

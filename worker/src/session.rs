@@ -7,6 +7,7 @@ use crate::assignment::{render_tile, TileOutcome};
 use crate::config::WorkerConfig;
 use crate::error::Error;
 use crate::health;
+use crate::metrics::WorkerMetrics;
 use crate::pool::CpuPool;
 use crate::renderer_cache::{RendererCache, DEFAULT_RENDERERS};
 use farm_proto::connect::{connect, Client, ConnectError};
@@ -85,6 +86,7 @@ struct Worker {
     renderers: RendererCache,
     max_in_flight: u32,
     summary: WorkerSummary,
+    metrics: Arc<WorkerMetrics>,
 }
 
 async fn run_until_stopped(
@@ -109,10 +111,35 @@ async fn run_until_stopped(
             }
         });
     }
+    let metrics = Arc::new(WorkerMetrics::default());
+    metrics.threads.set(pool.threads() as i64);
+    let (_metrics_guard, metrics_stopped) = oneshot::channel::<()>();
+    if let Some(address) = config.metrics_listen {
+        let listener = tokio::net::TcpListener::bind(address)
+            .await
+            .map_err(|source| Error::Metrics { address, source })?;
+        let bound = listener.local_addr().unwrap_or(address);
+        tracing::info!(%bound, "serving /metrics");
+        let m = metrics.clone();
+        tokio::spawn(async move {
+            let shutdown = async {
+                let _ = metrics_stopped.await;
+            };
+            if let Err(e) = crate::metrics::serve(listener, m, shutdown).await {
+                tracing::warn!(error = %e, "metrics server failed");
+            }
+        });
+    }
     let renderers = RendererCache::new(DEFAULT_RENDERERS, Arc::default(), pool.clone());
     let max_in_flight = config.in_flight(pool.threads());
-    let mut worker =
-        Worker { config, pool, renderers, max_in_flight, summary: WorkerSummary::default() };
+    let mut worker = Worker {
+        config,
+        pool,
+        renderers,
+        max_in_flight,
+        summary: WorkerSummary::default(),
+        metrics,
+    };
 
     let mut delay = BACKOFF.0;
     loop {
@@ -221,6 +248,7 @@ impl Worker {
             Err(status) => return SessionEnd::Lost(format!("opening the work stream: {status}")),
         };
         tracing::info!(max_in_flight = self.max_in_flight, "work stream open");
+        self.metrics.connected.set(1);
 
         let period = Duration::from_millis(match reply.heartbeat_interval_ms {
             0 => 1000,
@@ -253,7 +281,7 @@ impl Worker {
                 },
                 Some(joined) = work.tiles.join_next() => {
                     let Ok(outcome) = joined else { continue };
-                    work.finished(outcome);
+                    work.finished(outcome, &self.metrics);
                     if work.tiles.len() <= low_water && !self.send_held(&tx, &mut work.held).await {
                         break SessionEnd::closed();
                     }
@@ -271,6 +299,7 @@ impl Worker {
         };
 
         // Drop queued tiles (the coordinator requeues them) and close our side.
+        self.metrics.connected.set(0);
         work.drop_all();
         drop(tx);
         if matches!(end, SessionEnd::Shutdown) {
@@ -312,7 +341,7 @@ impl InFlight {
     }
 
     /// Takes a finished tile: its result waits in `held`.
-    fn finished(&mut self, outcome: TileOutcome) {
+    fn finished(&mut self, outcome: TileOutcome, metrics: &WorkerMetrics) {
         if let Some((flag, n)) = self.jobs.get_mut(&outcome.job_id) {
             if Arc::ptr_eq(flag, &outcome.cancelled) {
                 *n -= 1;
@@ -322,6 +351,7 @@ impl InFlight {
             }
         }
         if let Some(result) = outcome.result {
+            metrics.result(&result, outcome.seconds);
             self.held.push((outcome.cancelled, outcome.rendered, result));
         }
     }

@@ -21,6 +21,10 @@ pub struct WorkerArgs {
     /// Serve the gRPC health service here, for probes.
     #[arg(long)]
     pub health_listen: Option<std::net::SocketAddr>,
+    /// Serve Prometheus metrics at http://ADDR/metrics (counts only, no
+    /// token: bind it where only your Prometheus reaches).
+    #[arg(long, value_name = "ADDR")]
+    pub metrics_listen: Option<std::net::SocketAddr>,
 }
 
 /// Registers and renders until SIGINT or SIGTERM.
@@ -46,6 +50,7 @@ pub async fn run(args: WorkerArgs) -> ExitCode {
         name,
         max_in_flight: 0,
         health_listen: args.health_listen,
+        metrics_listen: args.metrics_listen,
         reconnect: true,
         token,
     };

@@ -287,7 +287,7 @@ async fn metrics(State(web): State<Web>) -> Response {
     let mut r = Response::new(Body::from(web.metrics.encode()));
     r.headers_mut().insert(
         header::CONTENT_TYPE,
-        HeaderValue::from_static("text/plain; version=0.0.4; charset=utf-8"),
+        HeaderValue::from_static("application/openmetrics-text; version=1.0.0; charset=utf-8"),
     );
     r
 }
