@@ -427,3 +427,50 @@ async fn a_journalled_job_resumes_to_the_same_bits() {
     );
     std::fs::remove_dir_all(dir).ok();
 }
+
+#[test]
+fn a_raised_priority_takes_the_next_free_slot_and_views_tell_the_truth() {
+    let mut s = Scheduler::new(SchedulerConfig::default());
+    let mut out = Recorder::default();
+    let t0 = Instant::now();
+    s.worker_joined(WorkerId(1), "w".into(), 1, 1, t0, &mut out);
+    let first = s.submit(spec(0), &mut out);
+    let second = s.submit(spec(0), &mut out);
+    let (w, a) = out.take().pop().unwrap();
+    assert_eq!(a.job, first);
+    assert!(s.set_priority(second, 5, &mut out));
+    assert!(out.take().is_empty(), "the slot is still held");
+    s.tile_done(w, a.key(), render(&geometry(), a.tile), RayStats::default(), &mut out);
+    let next = out.take();
+    assert_eq!(next[0].1.job, second, "the raised job goes first");
+    let (jobs, workers) = s.views(t0 + Duration::from_secs(2), |_, _| Some(0.5));
+    let v = |id: JobId| jobs.iter().find(|j| j.id == id.0).unwrap().clone();
+    assert_eq!((v(first).tiles_done, v(first).state, v(first).rel_mse), (1, "running", Some(0.5)));
+    assert_eq!(v(second).priority, 5);
+    assert_eq!(v(second).workers, 1);
+    assert!(v(first).eta_seconds.unwrap() > 0.0);
+    assert_eq!(workers[0].tiles_done, 1);
+    assert_eq!(workers[0].tiles_per_second, 0.5);
+    let g = s.gauges();
+    assert_eq!(g.jobs.get("running"), Some(&2));
+    assert_eq!(g.queue_depth as u32, 2 * geometry().tile_count() - 2);
+    // An ended job's priority cannot change.
+    assert!(s.cancel(first, &mut out));
+    assert!(!s.set_priority(first, 9, &mut out));
+}
+
+#[test]
+fn a_worker_failing_a_job_too_often_shows_as_blocklisted() {
+    let mut s = Scheduler::new(SchedulerConfig { max_tile_failures: 10, ..Default::default() });
+    let mut out = Recorder::default();
+    let t0 = Instant::now();
+    s.worker_joined(WorkerId(1), "flaky".into(), 1, 1, t0, &mut out);
+    let job = s.submit(spec(0), &mut out);
+    for _ in 0..3 {
+        let (w, a) = out.take().pop().expect("a tile");
+        s.tile_failed(w, a.key(), "boom".into(), true, &mut out);
+    }
+    let (_, workers) = s.views(t0, |_, _| None);
+    assert_eq!(workers[0].failures, 3);
+    assert_eq!(workers[0].blocklisted, vec![job.0]);
+}
