@@ -57,7 +57,7 @@ pub enum Command {
     /// Render tiles for a coordinator with every core of this machine.
     Worker(commands::worker::WorkerArgs),
     /// List a coordinator's jobs and workers.
-    Status(commands::RemoteArgs),
+    Status(commands::status::StatusArgs),
     /// Cancel a job on a coordinator.
     Cancel(commands::cancel::CancelArgs),
     /// Attach to a job on a coordinator and write its image when it is done.

@@ -355,3 +355,38 @@ fn the_command_line_refuses_what_the_security_model_refuses() {
     assert!(!log.contains(secret), "a secret was logged");
     std::fs::remove_dir_all(dir).ok();
 }
+
+#[test]
+fn status_prints_json_for_scripts_and_redraws_in_place_with_watch() {
+    let dir = std::env::temp_dir().join(format!("farm-procs-status-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).expect("temp dir");
+    let state = dir.join("state");
+    let mut procs = Procs(Vec::new());
+    let url = start_coordinator(&mut procs, &state);
+    let client = token_file(&state, "client").to_string_lossy().into_owned();
+    let (code, out, err) =
+        run(&["status", "--json", "--coordinator", &url, "--token-file", &client]);
+    assert_eq!(code, Some(0), "{err}");
+    let v: serde_json::Value = serde_json::from_str(out.trim()).expect("one JSON object");
+    assert!(v["jobs"].as_array().is_some() && v["workers"].as_array().is_some(), "{v}");
+    // --watch redraws until interrupted; SIGINT ends it cleanly.
+    let child = farm()
+        .args(["status", "--watch", "0.2", "--coordinator", &url, "--token-file", &client])
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .expect("farm status --watch");
+    std::thread::sleep(std::time::Duration::from_millis(1500));
+    let _ = std::process::Command::new("kill").args(["-INT", &child.id().to_string()]).status();
+    let out = child.wait_with_output().expect("wait");
+    assert_eq!(out.status.code(), Some(0), "{}", String::from_utf8_lossy(&out.stderr));
+    let text = String::from_utf8_lossy(&out.stdout);
+    let redraws = text.matches("\x1b[H\x1b[2J").count();
+    assert!(redraws >= 3, "{redraws} redraws in 1.5 s at 0.2 s: {text}");
+    assert!(text.matches("tiles done").count() == redraws, "each redraw holds the tables");
+    let (code, _, err) =
+        run(&["status", "--watch", "0", "--coordinator", &url, "--token-file", &client]);
+    assert_eq!(code, Some(2), "{err}");
+    drop(procs);
+    std::fs::remove_dir_all(dir).ok();
+}
