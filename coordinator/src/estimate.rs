@@ -62,6 +62,30 @@ impl Samples {
     }
 }
 
+/// One pixel's estimated relMSE (averaged over its channels), or `None`
+/// when a half has no samples there.
+pub fn pixel_error(p: &Pixel, scale: f32, samples: Samples) -> Option<f64> {
+    let scale = f64::from(scale);
+    let w = f64::from(p.weight);
+    let w_b = f64::from(p.second_weight);
+    let w_a = w - w_b;
+    if w == 0.0 || w_a == 0.0 || w_b == 0.0 {
+        return None;
+    }
+    let mut e = 0.0;
+    for c in 0..3 {
+        let all = f64::from(p.contrib[c]);
+        let second = f64::from(p.second_contrib[c]);
+        // The image clamps negative values (from negative filter lobes) to 0.
+        let full = (all / w).max(0.0) * scale;
+        let a = (all - second) / w_a * scale;
+        let b = second / w_b * scale;
+        let d = a - b;
+        e += d * d / 4.0 / (full * full + EPSILON);
+    }
+    Some(e / (3.0 * samples.difference_per_error()))
+}
+
 /// An estimate of a render's relMSE from its two half-images.
 #[derive(Clone, Debug, PartialEq)]
 pub struct ErrorEstimate {
@@ -88,30 +112,13 @@ impl ErrorEstimate {
         samples: Samples,
     ) -> Option<Self> {
         let (width, height) = (bounds.width().max(0) as usize, bounds.height().max(0) as usize);
-        let scale = f64::from(scale);
-        let divisor = 3.0 * samples.difference_per_error();
         let mut per_pixel = Vec::with_capacity(pixels.len());
         let (mut sum, mut counted) = (0.0f64, 0usize);
         for p in pixels {
-            let w = f64::from(p.weight);
-            let w_b = f64::from(p.second_weight);
-            let w_a = w - w_b;
-            if w == 0.0 || w_a == 0.0 || w_b == 0.0 {
+            let Some(e) = pixel_error(p, scale, samples) else {
                 per_pixel.push(0.0);
                 continue;
-            }
-            let mut e = 0.0;
-            for c in 0..3 {
-                let all = f64::from(p.contrib[c]);
-                let second = f64::from(p.second_contrib[c]);
-                // The image clamps negative values (from negative filter lobes) to 0.
-                let full = (all / w).max(0.0) * scale;
-                let a = (all - second) / w_a * scale;
-                let b = second / w_b * scale;
-                let d = a - b;
-                e += d * d / 4.0 / (full * full + EPSILON);
-            }
-            let e = e / divisor;
+            };
             per_pixel.push(e as f32);
             sum += e;
             counted += 1;

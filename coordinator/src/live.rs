@@ -2,18 +2,18 @@
 //! `farm watch` (over `WatchJob`), the web dashboard and tev.
 //!
 //! A watcher keeps a [`LiveCursor`]. The film lists the pixel bounds of
-//! each tile as it is taken ([`Film::changes_since`]); the cursor turns the
-//! ones it has not seen into dirty 128×128 pieces of the image, and hands
-//! out the dirty pieces as they stand ([`Film::preview_sums`]) when the
-//! watcher is ready for more. What a watcher costs is bounded: a bit per
-//! piece, and no more pieces per look than it asks for. A piece changed
-//! many times between two looks is sent once.
+//! each tile as it is taken ([`Film::changes_since`]); the cursor queues
+//! the ones it has not seen, and hands them out as they stand
+//! ([`Film::preview_sums`]) when the watcher is ready for more. Only what
+//! changed is sent: over a whole render, a watcher is sent each tile's
+//! pixel bounds once (the film plus the tiles' filter skirts), however
+//! often it looks. What a watcher holds is bounded by the tile count.
 
 use crate::merge::Film;
 use farm_common::geometry::{Bounds2i, Point2i};
 use farm_common::image::ImagePiece;
 
-/// Side of the pieces the image is sent in (pbrt-v4 sends tev 128×128).
+/// Side of the pieces a whole image is sent in (pbrt-v4 sends tev 128×128).
 pub const PIECE: i32 = 128;
 
 /// The `PIECE`×`PIECE` pieces of a `width`×`height` image, numbered row by
@@ -41,8 +41,8 @@ pub fn pieces(width: i32, height: i32, r: Bounds2i) -> impl Iterator<Item = (usi
 pub struct LiveCursor {
     /// Into the film's list of changes.
     seen: usize,
-    /// Pieces changed and not yet sent (sized on first use).
-    dirty: Vec<bool>,
+    /// Regions changed and not yet sent (image coordinates).
+    pending: std::collections::VecDeque<Bounds2i>,
 }
 
 impl LiveCursor {
@@ -55,7 +55,7 @@ impl LiveCursor {
     /// A cursor at `seen` changes (from [`LiveCursor::position`]), as a
     /// stateless watcher (a dashboard page) passes it back.
     pub fn at(seen: usize) -> Self {
-        LiveCursor { seen, dirty: Vec::new() }
+        LiveCursor { seen, pending: Default::default() }
     }
 
     /// How many of the film's changes this cursor has taken in.
@@ -63,52 +63,42 @@ impl LiveCursor {
         self.seen
     }
 
-    /// Marks the pieces that changed since the last look.
+    /// Queues the regions that changed since the last look.
     pub fn catch_up(&mut self, film: &Film) {
         let b = film.geometry().cropped_pixel_bounds;
-        let (w, h) = (b.width(), b.height());
-        let count = pieces(w, h, Bounds2i::new(Point2i::new(0, 0), Point2i::new(w, h))).count();
-        if self.dirty.len() != count {
-            self.dirty = vec![false; count];
-        }
         let (changes, next) = film.changes_since(self.seen);
-        for c in changes {
-            let local = shift(*c, -b.min.x, -b.min.y);
-            for (i, _) in pieces(w, h, local) {
-                self.dirty[i] = true;
-            }
-        }
+        self.pending.extend(changes.iter().map(|c| shift(*c, -b.min.x, -b.min.y)));
         self.seen = next;
     }
 
-    /// Whether a piece waits to be sent.
+    /// Whether a region waits to be sent.
     pub fn pending(&self) -> bool {
-        self.dirty.iter().any(|&d| d)
+        !self.pending.is_empty()
     }
 
-    /// Takes up to `max` dirty pieces, first by piece order, as they stand.
-    /// The rest stay dirty for the next look.
-    pub fn take(&mut self, film: &Film, max: usize) -> Vec<ImagePiece> {
+    /// Takes changed regions, oldest first, as they stand now: at least
+    /// one, and no more once they hold `max_pixels`. The rest wait for the
+    /// next look.
+    pub fn take(&mut self, film: &Film, max_pixels: usize) -> Vec<ImagePiece> {
         self.catch_up(film);
         let b = film.geometry().cropped_pixel_bounds;
-        let (w, h) = (b.width(), b.height());
-        let full = Bounds2i::new(Point2i::new(0, 0), Point2i::new(w, h));
-        let mut out = Vec::new();
-        for (i, p) in pieces(w, h, full) {
-            if out.len() >= max {
+        let mut n = 0;
+        let mut pixels = 0usize;
+        for r in &self.pending {
+            if n > 0 && pixels.saturating_add(r.area()) > max_pixels {
                 break;
             }
-            if !std::mem::take(&mut self.dirty[i]) {
-                continue;
-            }
-            let sums = film.preview_sums(shift(p, b.min.x, b.min.y));
-            out.push(ImagePiece {
-                bounds: p,
-                image: film.resolve(&sums),
-                error: film.error_map(&sums),
-            });
+            pixels = pixels.saturating_add(r.area());
+            n += 1;
         }
-        out
+        self.pending
+            .drain(..n)
+            .filter(|r| !r.is_empty())
+            .map(|r| {
+                let sums = film.preview_sums(shift(r, b.min.x, b.min.y));
+                ImagePiece { bounds: r, image: film.resolve(&sums), error: film.error_map(&sums) }
+            })
+            .collect()
     }
 }
 
@@ -159,37 +149,38 @@ mod tests {
         let g = geometry(300, 40);
         let mut film = Film::new(g.clone());
         let mut live = LiveCursor::new();
-        assert!(live.take(&film, 8).is_empty(), "nothing rendered, nothing sent");
+        assert!(live.take(&film, usize::MAX).is_empty(), "nothing rendered, nothing sent");
         // A tile of the last column arrives early: it shows before the merge reaches it.
         let last = g.tile_count() - 1;
         film.accept(TileId(last), lit(&g, last, 2.0)).unwrap();
-        let r = live.take(&film, 8);
+        let r = live.take(&film, usize::MAX);
         assert_eq!(r.len(), 1);
-        assert_eq!(r[0].bounds.min.x, 256);
         let b = g.tile_pixel_bounds(TileId(last));
-        let inside = Point2i::new(b.max.x - 1 - 256, b.max.y - 1);
-        assert_eq!(
-            r[0].image.pixels[(inside.y * r[0].bounds.width() + inside.x) as usize],
-            [2.0; 3]
-        );
-        assert!(live.take(&film, 8).is_empty(), "sent once");
-        // Every tile: the pieces come out at most `max` a look, and the rest wait.
+        assert_eq!(r[0].bounds, b, "exactly the tile's pixels (the film starts at 0, 0)");
+        assert!(r[0].image.pixels.iter().all(|p| *p == [2.0; 3]));
+        assert!(live.take(&film, usize::MAX).is_empty(), "sent once");
+        // Every tile: the regions come out up to a budget a look, and the rest wait.
         for t in 0..last {
             film.accept(TileId(t), lit(&g, t, 1.0)).unwrap();
         }
-        assert_eq!(live.take(&film, 2).len(), 2);
+        let two = g.tile_pixel_bounds(TileId(0)).area() + g.tile_pixel_bounds(TileId(1)).area();
+        assert_eq!(live.take(&film, two).len(), 2);
+        assert_eq!(live.take(&film, 1).len(), 1, "at least one");
         assert!(live.pending());
-        assert_eq!(live.take(&film, 8).len(), 1);
+        assert_eq!(live.take(&film, usize::MAX).len(), last as usize - 3);
         assert!(!live.pending());
         // A stateless watcher at position 0 sees the whole image as the film has it.
         let mut fresh = LiveCursor::at(0);
         let all = fresh.take(&film, usize::MAX);
+        assert_eq!(all.len(), g.tile_count() as usize);
         let image = film.image();
+        let mut covered = vec![false; 300 * 40];
         for reg in &all {
             for (i, p) in reg.bounds.iter().enumerate() {
                 assert_eq!(reg.image.pixels[i], image.pixels[(p.y * 300 + p.x) as usize]);
+                covered[(p.y * 300 + p.x) as usize] = true;
             }
         }
-        assert_eq!(all.iter().map(|r| r.bounds.area()).sum::<usize>(), 300 * 40);
+        assert!(covered.iter().all(|&c| c), "the regions cover the image");
     }
 }

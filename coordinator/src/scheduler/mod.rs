@@ -77,6 +77,11 @@ impl Scheduler {
         self.jobs.get(&job)?.film.as_ref()
     }
 
+    /// The film of an active job, to bring its running estimate up to date.
+    pub fn film_mut(&mut self, job: JobId) -> Option<&mut crate::merge::Film> {
+        self.jobs.get_mut(&job)?.film.as_mut()
+    }
+
     /// Jobs and workers for `farm status`.
     pub fn status(&self) -> (Vec<JobRow>, Vec<WorkerRow>) {
         let jobs = self

@@ -31,9 +31,9 @@ pub type WatchTx = mpsc::UnboundedSender<Result<v1::JobEvent, Status>>;
 /// behind is sent less, not queued more.
 pub type LiveTx = mpsc::Sender<Result<v1::JobEvent, Status>>;
 
-/// Pieces (of at most 128×128 pixels, 250 KiB with the error map) in one
-/// preview event: about 4 MiB.
-const PIECES_PER_EVENT: usize = 16;
+/// Pixels in one preview event (16 bytes each with the error map): about
+/// 4 MiB, well under the message limit.
+const PIXELS_PER_EVENT: usize = 1 << 18;
 
 /// Everything the event loop reacts to.
 pub enum Event {
@@ -325,7 +325,6 @@ pub async fn run(mut rx: mpsc::UnboundedReceiver<Event>, config: ServerConfig, s
     let mut sched = Scheduler::new(config.scheduler.clone());
     let mut out =
         GrpcOutbox { journal: state.journal, metrics: state.metrics, ..Default::default() };
-    let mut estimates: HashMap<JobId, (Instant, Option<f64>)> = HashMap::new();
     let mut rays_at: (Instant, u64) = (Instant::now(), 0);
     sched.set_next_job(state.next_job);
     for job in state.jobs {
@@ -394,15 +393,15 @@ pub async fn run(mut rx: mpsc::UnboundedReceiver<Event>, config: ServerConfig, s
             },
             Event::LiveTick => send_live(&sched, &mut out),
             Event::Views { reply } => {
-                estimates.retain(|j, (t, _)| {
-                    now.duration_since(*t) < ESTIMATE_EVERY && sched.film(*j).is_some()
-                });
-                let views = sched.views(now, |job, film| {
-                    estimates
-                        .entry(job)
-                        .or_insert_with(|| (now, film.error_estimate().map(|e| e.rel_mse)))
-                        .1
-                });
+                // Each running estimate is brought up to date over the
+                // tiles merged since the last look, not recomputed.
+                let mut estimates = HashMap::new();
+                for (job, _) in sched.active_jobs() {
+                    if let Some(film) = sched.film_mut(job) {
+                        estimates.insert(job, film.running_estimate());
+                    }
+                }
+                let views = sched.views(now, |job, _| estimates.get(&job).copied().flatten());
                 let _ = reply.send(views);
             }
             Event::Live { job, from, reply } => {
@@ -467,10 +466,6 @@ pub async fn run(mut rx: mpsc::UnboundedReceiver<Event>, config: ServerConfig, s
     }
 }
 
-/// How long a running job's estimated relMSE is reused by the dashboard
-/// (computing it reads the whole film).
-const ESTIMATE_EVERY: Duration = Duration::from_secs(2);
-
 /// What a dashboard page at cursor `from` is shown of `job`.
 fn live_answer(sched: &Scheduler, job: JobId, from: usize) -> LiveAnswer {
     if let Some(film) = sched.film(job) {
@@ -506,7 +501,7 @@ fn send_live(sched: &Scheduler, out: &mut GrpcOutbox) {
             if tx.capacity() == 0 {
                 return true;
             }
-            let pieces = cursor.take(film, PIECES_PER_EVENT);
+            let pieces = cursor.take(film, PIXELS_PER_EVENT);
             if pieces.is_empty() {
                 return true;
             }

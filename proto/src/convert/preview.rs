@@ -6,9 +6,10 @@ use crate::v1;
 use farm_common::geometry::{Bounds2i, Point2i};
 use farm_common::image::{ImagePiece, RgbImage};
 
-/// The largest side of a preview piece a reader takes (the coordinator
-/// sends 128).
-pub const PREVIEW_PIECE: i32 = 256;
+/// The largest side of a preview piece a reader takes: a tile's pixels
+/// (16 plus its filter's skirt each side), or 128 for a whole image sent
+/// in pieces.
+pub const PREVIEW_PIECE: i32 = 1024;
 
 /// The preview event of `pieces` of a `width`×`height` image.
 pub fn encode_preview(width: u32, height: u32, pieces: &[ImagePiece]) -> v1::JobPreview {
