@@ -12,7 +12,7 @@
 //! The farm is real processes on loopback: an insecure coordinator, two
 //! workers of one thread, `farm submit --coordinator`. The "dashboard" is
 //! this program making the requests a job page's script makes: the live
-//! image every 400 ms and the job's facts every second.
+//! image every second and the job's facts every two.
 
 use std::io::{BufRead, BufReader, Read, Write};
 use std::net::{TcpListener, TcpStream};
@@ -119,15 +119,19 @@ fn dashboard(addr: String, stop: Arc<AtomicBool>) -> std::thread::JoinHandle<u64
         while !stop.load(Ordering::Relaxed) {
             let body = browser.get(&format!("/api/jobs/{job}/live?from={cursor}"));
             requests += 1;
-            if body.len() >= 12 {
+            if body.len() >= 16 {
                 cursor = u32::from_le_bytes([body[8], body[9], body[10], body[11]]);
+                if body[12] != 0 {
+                    // Done (or ended): the page stops looking, as the script does.
+                    break;
+                }
             }
-            if last_facts.elapsed() >= Duration::from_secs(1) {
+            if last_facts.elapsed() >= Duration::from_secs(2) {
                 browser.get(&format!("/fragments/job/{job}"));
                 requests += 1;
                 last_facts = Instant::now();
             }
-            std::thread::sleep(Duration::from_millis(400));
+            std::thread::sleep(Duration::from_millis(1000));
         }
         requests
     })

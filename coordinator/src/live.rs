@@ -78,8 +78,8 @@ impl LiveCursor {
 
     /// Takes changed regions, oldest first, as they stand now: at least
     /// one, and no more once they hold `max_pixels`. The rest wait for the
-    /// next look.
-    pub fn take(&mut self, film: &Film, max_pixels: usize) -> Vec<ImagePiece> {
+    /// next look. With `errors`, each comes with its error map.
+    pub fn take(&mut self, film: &Film, max_pixels: usize, errors: bool) -> Vec<ImagePiece> {
         self.catch_up(film);
         let b = film.geometry().cropped_pixel_bounds;
         let mut n = 0;
@@ -96,7 +96,8 @@ impl LiveCursor {
             .filter(|r| !r.is_empty())
             .map(|r| {
                 let sums = film.preview_sums(shift(r, b.min.x, b.min.y));
-                ImagePiece { bounds: r, image: film.resolve(&sums), error: film.error_map(&sums) }
+                let error = if errors { film.error_map(&sums) } else { None };
+                ImagePiece { bounds: r, image: film.resolve(&sums), error }
             })
             .collect()
     }
@@ -149,29 +150,30 @@ mod tests {
         let g = geometry(300, 40);
         let mut film = Film::new(g.clone());
         let mut live = LiveCursor::new();
-        assert!(live.take(&film, usize::MAX).is_empty(), "nothing rendered, nothing sent");
+        assert!(live.take(&film, usize::MAX, false).is_empty(), "nothing rendered, nothing sent");
         // A tile of the last column arrives early: it shows before the merge reaches it.
         let last = g.tile_count() - 1;
         film.accept(TileId(last), lit(&g, last, 2.0)).unwrap();
-        let r = live.take(&film, usize::MAX);
+        let r = live.take(&film, usize::MAX, false);
         assert_eq!(r.len(), 1);
         let b = g.tile_pixel_bounds(TileId(last));
         assert_eq!(r[0].bounds, b, "exactly the tile's pixels (the film starts at 0, 0)");
         assert!(r[0].image.pixels.iter().all(|p| *p == [2.0; 3]));
-        assert!(live.take(&film, usize::MAX).is_empty(), "sent once");
+        assert!(live.take(&film, usize::MAX, false).is_empty(), "sent once");
         // Every tile: the regions come out up to a budget a look, and the rest wait.
         for t in 0..last {
             film.accept(TileId(t), lit(&g, t, 1.0)).unwrap();
         }
         let two = g.tile_pixel_bounds(TileId(0)).area() + g.tile_pixel_bounds(TileId(1)).area();
-        assert_eq!(live.take(&film, two).len(), 2);
-        assert_eq!(live.take(&film, 1).len(), 1, "at least one");
+        assert_eq!(live.take(&film, two, false).len(), 2);
+        assert_eq!(live.take(&film, 1, false).len(), 1, "at least one");
         assert!(live.pending());
-        assert_eq!(live.take(&film, usize::MAX).len(), last as usize - 3);
+        assert_eq!(live.take(&film, usize::MAX, false).len(), last as usize - 3);
         assert!(!live.pending());
         // A stateless watcher at position 0 sees the whole image as the film has it.
         let mut fresh = LiveCursor::at(0);
-        let all = fresh.take(&film, usize::MAX);
+        let all = fresh.take(&film, usize::MAX, true);
+        assert!(all.iter().all(|r| r.error.as_ref().is_some_and(|e| e.len() == r.bounds.area())));
         assert_eq!(all.len(), g.tile_count() as usize);
         let image = film.image();
         let mut covered = vec![false; 300 * 40];

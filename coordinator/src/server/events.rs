@@ -471,7 +471,7 @@ fn live_answer(sched: &Scheduler, job: JobId, from: usize) -> LiveAnswer {
     if let Some(film) = sched.film(job) {
         let b = film.geometry().cropped_pixel_bounds;
         let mut cursor = LiveCursor::at(from);
-        let pieces = cursor.take(film, usize::MAX);
+        let pieces = cursor.take(film, usize::MAX, true);
         return LiveAnswer::Running {
             width: b.width() as u32,
             height: b.height() as u32,
@@ -501,7 +501,8 @@ fn send_live(sched: &Scheduler, out: &mut GrpcOutbox) {
             if tx.capacity() == 0 {
                 return true;
             }
-            let pieces = cursor.take(film, PIXELS_PER_EVENT);
+            // tev is shown the error map of the finished image only.
+            let pieces = cursor.take(film, PIXELS_PER_EVENT, false);
             if pieces.is_empty() {
                 return true;
             }

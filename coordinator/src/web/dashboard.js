@@ -57,7 +57,7 @@ function startLive(box) {
       const r = await fetch(`${box.dataset.live}?from=${from}`, { cache: "no-store" });
       if (r.ok) again = draw(new DataView(await r.arrayBuffer()));
     } catch (e) { /* try again */ }
-    if (again) setTimeout(look, 400);
+    if (again) setTimeout(look, 1000);
   }
   // Returns whether to keep looking.
   function draw(d) {
@@ -89,7 +89,7 @@ function startLive(box) {
 }
 
 window.addEventListener("DOMContentLoaded", () => {
-  setInterval(refreshFragments, 1000);
+  setInterval(refreshFragments, 2000);
   const box = document.querySelector("[data-live]");
   if (box) startLive(box);
 });

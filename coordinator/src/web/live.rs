@@ -29,11 +29,26 @@ pub(super) struct From {
     from: usize,
 }
 
-/// Linear to an 8-bit sRGB code value (clamped to [0, 1]).
+/// Entries of the sRGB table: linear [0, 1] in steps of 1/4096.
+const SRGB_STEPS: usize = 4096;
+
+/// Linear to an 8-bit sRGB code value (clamped to [0, 1]), by table: the
+/// pages draw every pixel that changes, and `powf` per channel was most of
+/// what drawing cost.
 pub fn srgb8(v: f32) -> u8 {
+    static TABLE: std::sync::OnceLock<Vec<u8>> = std::sync::OnceLock::new();
+    let t = TABLE.get_or_init(|| {
+        (0..=SRGB_STEPS)
+            .map(|i| {
+                let v = i as f32 / SRGB_STEPS as f32;
+                let s =
+                    if v <= 0.003_130_8 { 12.92 * v } else { 1.055 * v.powf(1.0 / 2.4) - 0.055 };
+                (s * 255.0 + 0.5) as u8
+            })
+            .collect()
+    });
     let v = if v.is_finite() { v.clamp(0.0, 1.0) } else { 0.0 };
-    let s = if v <= 0.003_130_8 { 12.92 * v } else { 1.055 * v.powf(1.0 / 2.4) - 0.055 };
-    (s * 255.0 + 0.5) as u8
+    t[(v * SRGB_STEPS as f32 + 0.5) as usize]
 }
 
 /// A relMSE estimate as a colour: log scale from 1e-5 (black) through
