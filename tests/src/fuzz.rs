@@ -34,8 +34,9 @@ pub fn image(data: &[u8]) {
     let _ = farm_common::image::read_image(bytes, name);
 }
 
-/// Every message the coordinator receives, decoded as it decodes them:
-/// the first byte picks the message type.
+/// Every message the coordinator receives, decoded as it decodes them,
+/// and the job events a client receives: the first byte picks the message
+/// type.
 pub fn messages(data: &[u8]) {
     let Some((&pick, bytes)) = data.split_first() else { return };
     match pick % 8 {
@@ -51,7 +52,16 @@ pub fn messages(data: &[u8]) {
             }
         }
         3 => drop(v1::SubmitJobRequest::decode(bytes)),
-        4 => drop(v1::FetchBlobRequest::decode(bytes)),
+        4 => {
+            drop(v1::FetchBlobRequest::decode(bytes));
+            // What a client is sent while it watches: previews are checked
+            // against the image they claim before anything is drawn.
+            if let Ok(v1::JobEvent { kind: Some(v1::job_event::Kind::Preview(p)) }) =
+                v1::JobEvent::decode(bytes)
+            {
+                let _ = farm_proto::convert::decode_preview(&p, p.width, p.height);
+            }
+        }
         5 => drop(v1::WatchJobRequest::decode(bytes).map(|_| v1::CancelJobRequest::decode(bytes))),
         6 => {
             // A scene manifest is a blob the coordinator decodes at SubmitJob.

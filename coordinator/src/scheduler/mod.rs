@@ -82,31 +82,30 @@ impl Scheduler {
         self.jobs.get_mut(&job)?.film.as_mut()
     }
 
-    /// Jobs and workers for `farm status`.
+    /// Jobs and workers for `farm status`: the dashboard's rows, cut down.
     pub fn status(&self) -> (Vec<JobRow>, Vec<WorkerRow>) {
-        let jobs = self
-            .jobs
-            .values()
+        let (jobs, workers) = self.views(std::time::Instant::now(), |_, _| None);
+        let jobs = jobs
+            .into_iter()
             .map(|j| JobRow {
-                id: j.id,
-                name: j.spec.name.clone(),
-                state: j.state.name(),
-                done: j.done_tiles,
-                total: j.spec.geometry.tile_count(),
-                priority: j.spec.priority,
-                owner: j.spec.owner.clone(),
-                attempts: j.attempts.values().sum(),
-                retries: j.attempts.values().map(|a| a.saturating_sub(1)).sum(),
+                id: JobId(j.id),
+                name: j.name,
+                state: j.state,
+                done: j.tiles_done,
+                total: j.tiles_total,
+                priority: j.priority,
+                owner: Owner { id: j.owner_id, name: j.owner },
+                attempts: j.attempts,
+                retries: j.retries,
             })
             .collect();
-        let workers = self
-            .workers
-            .iter()
-            .map(|(id, w)| WorkerRow {
-                id: *id,
-                name: w.name.clone(),
+        let workers = workers
+            .into_iter()
+            .map(|w| WorkerRow {
+                id: WorkerId(w.id),
+                name: w.name,
                 threads: w.threads,
-                in_flight: w.in_flight.len() as u32,
+                in_flight: w.in_flight,
                 tiles_done: w.tiles_done,
             })
             .collect();

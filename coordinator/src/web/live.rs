@@ -142,10 +142,8 @@ pub(super) async fn live(
     Query(q): Query<From>,
 ) -> Response {
     let job = JobId(id);
-    match may_touch(&web, &caller, job).await {
-        None => return super::shutting_down(),
-        Some(false) => return (StatusCode::NOT_FOUND, "no such job of yours").into_response(),
-        Some(true) => {}
+    if let Err(refused) = may_touch(&web, &caller, job).await {
+        return refused;
     }
     let Some(answer) = super::ask(&web, |reply| Event::Live { job, from: q.from, reply }).await
     else {

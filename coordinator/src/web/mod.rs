@@ -213,13 +213,27 @@ pub(crate) async fn views(
 }
 
 /// Whether `caller` may see and act on `job` (an admin any, a client its
-/// own); `None` when the loop has stopped.
-pub(crate) async fn may_touch(web: &Web, caller: &Caller, job: JobId) -> Option<bool> {
+/// own): the refusal to answer with otherwise. Another client's job is
+/// "not found", as a job that does not exist is.
+pub(crate) async fn may_touch(web: &Web, caller: &Caller, job: JobId) -> Result<(), Response> {
     if caller.who.role == Role::Admin {
-        return Some(true);
+        return Ok(());
     }
-    let owner = ask(web, |reply| Event::Owner { job, reply }).await?;
-    Some(owner.is_some_and(|o| o.id == caller.who.id))
+    match ask(web, |reply| Event::Owner { job, reply }).await {
+        None => Err(shutting_down()),
+        Some(Some(o)) if o.id == caller.who.id => Ok(()),
+        Some(_) => Err((StatusCode::NOT_FOUND, "no such job of yours").into_response()),
+    }
+}
+
+/// The answer to an action the loop says was done (`Some(true)`), came
+/// too late (`Some(false)`), or could not be asked.
+fn acted(done: Option<bool>, what: &'static str) -> Response {
+    match done {
+        Some(true) => (StatusCode::OK, what).into_response(),
+        Some(false) => (StatusCode::CONFLICT, "the job has already ended").into_response(),
+        None => shutting_down(),
+    }
 }
 
 async fn status(
@@ -240,19 +254,14 @@ async fn cancel(
     Path(id): Path<u64>,
 ) -> Response {
     let job = JobId(id);
-    match may_touch(&web, &caller, job).await {
-        None => return shutting_down(),
-        Some(false) => return (StatusCode::NOT_FOUND, "no such job of yours").into_response(),
-        Some(true) => {}
+    if let Err(refused) = may_touch(&web, &caller, job).await {
+        return refused;
     }
-    match ask(&web, |reply| Event::Cancel { job, reply }).await {
-        Some(true) => {
-            tracing::info!(job = id, by = %caller.who.name, "job cancelled from the dashboard");
-            (StatusCode::OK, "cancelled").into_response()
-        }
-        Some(false) => (StatusCode::CONFLICT, "the job has already ended").into_response(),
-        None => shutting_down(),
+    let done = ask(&web, |reply| Event::Cancel { job, reply }).await;
+    if done == Some(true) {
+        tracing::info!(job = id, by = %caller.who.name, "job cancelled from the dashboard");
     }
+    acted(done, "cancelled")
 }
 
 #[derive(serde::Deserialize)]
@@ -267,17 +276,11 @@ async fn priority(
     Form(f): Form<PriorityForm>,
 ) -> Response {
     let job = JobId(id);
-    match may_touch(&web, &caller, job).await {
-        None => return shutting_down(),
-        Some(false) => return (StatusCode::NOT_FOUND, "no such job of yours").into_response(),
-        Some(true) => {}
+    if let Err(refused) = may_touch(&web, &caller, job).await {
+        return refused;
     }
     let priority = f.priority;
-    match ask(&web, |reply| Event::Priority { job, priority, reply }).await {
-        Some(true) => (StatusCode::OK, "priority changed").into_response(),
-        Some(false) => (StatusCode::CONFLICT, "the job has already ended").into_response(),
-        None => shutting_down(),
-    }
+    acted(ask(&web, |reply| Event::Priority { job, priority, reply }).await, "priority changed")
 }
 
 async fn metrics(State(web): State<Web>) -> Response {

@@ -214,14 +214,7 @@ pub(super) async fn workers_fragment(
 }
 
 async fn one_job(web: &Web, caller: &Caller, id: u64) -> Result<JobView, Response> {
-    let job = JobId(id);
-    match may_touch(web, caller, job).await {
-        None => return Err(shutting_down()),
-        Some(false) => {
-            return Err((StatusCode::NOT_FOUND, "no such job of yours").into_response());
-        }
-        Some(true) => {}
-    }
+    may_touch(web, caller, JobId(id)).await?;
     let Some((jobs, _)) = views(web, caller).await else { return Err(shutting_down()) };
     jobs.into_iter()
         .find(|j| j.id == id)
