@@ -72,10 +72,12 @@ pub fn router(web: Web) -> Router {
         .route("/api/jobs/{id}/cancel", post(cancel))
         .route("/api/jobs/{id}/priority", post(priority))
         .route("/metrics", get(metrics))
-        .route("/signout", post(signout))
         .route_layer(middleware::from_fn_with_state(web.clone(), authenticate));
     Router::new()
         .route("/signin", get(page::signin_form).post(signin))
+        // Signing out only clears the cookie: it needs no token, and a
+        // plain form (which sends no CSRF header) may do it.
+        .route("/signout", post(signout))
         .route("/assets/dashboard.js", get(page::script))
         .route("/assets/dashboard.css", get(page::style))
         .merge(checked)

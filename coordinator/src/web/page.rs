@@ -40,7 +40,7 @@ fn shell(title: &str, body: &str) -> Html<String> {
 <script src="/assets/dashboard.js" defer></script>
 </head><body>
 <header><a href="/" class="brand">farm</a>
-<form method="post" action="/signout" class="signout" data-plain><button>Sign out</button></form></header>
+<form method="post" action="/signout" class="signout"><button>Sign out</button></form></header>
 <main>{body}</main>
 </body></html>"#,
         title = escape(title)
@@ -264,7 +264,7 @@ pub(super) fn signin_page(message: Option<&str>) -> Html<String> {
         "Sign in",
         &format!(
             r#"<h1>Sign in</h1>{msg}
-<form method="post" action="/signin" class="signin" data-plain>
+<form method="post" action="/signin" class="signin">
 <label>Token <input type="password" name="token" autocomplete="off" required></label>
 <button>Sign in</button></form>
 <p>An admin or client token: <code>farm token create --role client --name NAME</code>, or the

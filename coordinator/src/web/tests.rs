@@ -151,5 +151,11 @@ async fn the_sign_in_cookie_works_and_its_actions_need_the_csrf_header() {
     assert_eq!(call(&app, "POST", "/api/jobs/1/cancel", &[("cookie", &pair)]).await.0, 403);
     let with = [("cookie", pair.as_str()), (CSRF_HEADER, "1")];
     assert_eq!(call(&app, "POST", "/api/jobs/1/cancel", &with).await.0, 200);
+    // The sign-out form clears the cookie.
+    let out = Request::builder().method("POST").uri("/signout").header("cookie", &pair);
+    let r = app.clone().oneshot(out.body(Body::empty()).unwrap()).await.unwrap();
+    assert_eq!(r.status(), StatusCode::SEE_OTHER);
+    let cleared = r.headers()[header::SET_COOKIE].to_str().unwrap();
+    assert!(cleared.starts_with(&format!("{COOKIE}=;")) && cleared.contains("Max-Age=0"));
     std::fs::remove_dir_all(dir).ok();
 }
