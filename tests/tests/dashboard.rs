@@ -109,7 +109,7 @@ async fn the_job_page_shows_the_image_changing_and_cancels_a_job() {
     c.goto(&format!("{base}/jobs/{long}")).await.expect("open the job page");
     let mut seen: Vec<String> = Vec::new();
     let mut changes_while_running = 0;
-    let mut shot = false;
+    let mut shot = 0;
     let deadline = Instant::now() + Duration::from_secs(240);
     loop {
         let (sum, state) = look(&c).await;
@@ -119,8 +119,9 @@ async fn the_job_page_shows_the_image_changing_and_cancels_a_job() {
             }
             seen.push(sum);
         }
-        if changes_while_running == 2 && !shot {
-            shot = true;
+        // The last one taken while it runs stays: the page furthest along.
+        if changes_while_running >= 2 && shot < changes_while_running && state == "running" {
+            shot = changes_while_running;
             let png = c.screenshot().await.expect("screenshot");
             let path = std::path::Path::new(env!("CARGO_TARGET_TMPDIR")).join("dashboard-job.png");
             std::fs::write(&path, png).expect("write the screenshot");
