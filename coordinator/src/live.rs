@@ -78,7 +78,9 @@ impl LiveCursor {
 
     /// Takes changed regions, oldest first, as they stand now: at least
     /// one, and no more once they hold `max_pixels`. The rest wait for the
-    /// next look. With `errors`, each comes with its error map.
+    /// next look. With `errors`, each comes with the error map of the
+    /// running estimate ([`Film::running_estimate`], as last brought up to
+    /// date: tiles that arrived early show once merged).
     pub fn take(&mut self, film: &Film, max_pixels: usize, errors: bool) -> Vec<ImagePiece> {
         self.catch_up(film);
         let b = film.geometry().cropped_pixel_bounds;
@@ -113,7 +115,7 @@ impl LiveCursor {
             .into_iter()
             .map(|r| {
                 let sums = film.preview_sums(shift(r, b.min.x, b.min.y));
-                let error = if errors { film.error_map(&sums) } else { None };
+                let error = if errors { film.running_error_map(r) } else { None };
                 ImagePiece { bounds: r, image: film.resolve(&sums), error }
             })
             .collect()
@@ -192,6 +194,8 @@ mod tests {
         assert!(!live.pending());
         // A stateless watcher at position 0 sees the whole image as the film has it.
         let mut fresh = LiveCursor::at(0);
+        assert!(fresh.clone().take(&film, usize::MAX, true)[0].error.is_none(), "not asked yet");
+        film.running_estimate();
         let all = fresh.take(&film, usize::MAX, true);
         assert!(all.iter().all(|r| r.error.as_ref().is_some_and(|e| e.len() == r.bounds.area())));
         let image = film.image();

@@ -6,7 +6,7 @@
 use crate::error::Error;
 use crate::estimate::{pixel_error, ErrorEstimate, Samples};
 use farm_common::film::{FilmGeometry, FilmTile, Pixel};
-use farm_common::geometry::Bounds2i;
+use farm_common::geometry::{Bounds2i, Point2i};
 use farm_common::ids::TileId;
 use farm_common::image::RgbImage;
 use std::collections::BTreeMap;
@@ -165,6 +165,26 @@ impl Film {
         (r.counted > 0).then(|| r.sum.max(0.0) / r.counted as f64)
     }
 
+    /// The running estimate's per-pixel values over `region` (image
+    /// coordinates, the crop's corner at 0, 0; 0 where there is none yet),
+    /// or `None` before [`Film::running_estimate`] was first asked for.
+    pub fn running_error_map(&self, region: Bounds2i) -> Option<Vec<f32>> {
+        let b = self.geometry.cropped_pixel_bounds;
+        let per_pixel = &self.running.per_pixel;
+        if per_pixel.len() != b.area() {
+            return None;
+        }
+        let w = b.width() as usize;
+        let full = Bounds2i::new(Point2i::new(0, 0), Point2i::new(b.width(), b.height()));
+        let r = region.intersect(&full);
+        let mut out = Vec::with_capacity(r.area());
+        for y in r.min.y..r.max.y {
+            let row = &per_pixel[y as usize * w..][r.min.x as usize..r.max.x as usize];
+            out.extend(row.iter().map(|&e| if e.is_nan() { 0.0 } else { e as f32 }));
+        }
+        Some(out)
+    }
+
     /// The regions changed since a watcher's `cursor` (0 at first), and
     /// the cursor to pass next time.
     pub fn changes_since(&self, cursor: usize) -> (&[Bounds2i], usize) {
@@ -208,15 +228,6 @@ impl Film {
         let scale = self.geometry.scale;
         let pixels = sums.pixels.iter().map(|p| resolve(p, scale)).collect();
         RgbImage { width: b.width() as usize, height: b.height() as usize, pixels }
-    }
-
-    /// The per-pixel error estimate over some sums' bounds (`None` at one
-    /// sample per pixel), as [`Film::error_estimate`] computes it.
-    pub fn error_map(&self, sums: &FilmTile) -> Option<Vec<f32>> {
-        let g = &self.geometry;
-        let samples = Samples::of(g.independent_samples);
-        ErrorEstimate::from_pixels(sums.pixel_bounds, &sums.pixels, g.scale, samples)
-            .map(|e| e.per_pixel)
     }
 
     /// The image: weighted sums divided by weights, clamped at zero, times

@@ -405,7 +405,7 @@ pub async fn run(mut rx: mpsc::UnboundedReceiver<Event>, config: ServerConfig, s
                 let _ = reply.send(views);
             }
             Event::Live { job, from, reply } => {
-                let _ = reply.send(live_answer(&sched, job, from));
+                let _ = reply.send(live_answer(&mut sched, job, from));
             }
             Event::Priority { job, priority, reply } => {
                 let _ = reply.send(sched.set_priority(job, priority, &mut out));
@@ -467,8 +467,10 @@ pub async fn run(mut rx: mpsc::UnboundedReceiver<Event>, config: ServerConfig, s
 }
 
 /// What a dashboard page at cursor `from` is shown of `job`.
-fn live_answer(sched: &Scheduler, job: JobId, from: usize) -> LiveAnswer {
-    if let Some(film) = sched.film(job) {
+fn live_answer(sched: &mut Scheduler, job: JobId, from: usize) -> LiveAnswer {
+    if let Some(film) = sched.film_mut(job) {
+        // The error map is the running estimate's, brought up to date.
+        film.running_estimate();
         let b = film.geometry().cropped_pixel_bounds;
         let mut cursor = LiveCursor::at(from);
         let pieces = cursor.take(film, usize::MAX, true);

@@ -51,17 +51,37 @@ pub fn srgb8(v: f32) -> u8 {
     t[(v * SRGB_STEPS as f32 + 0.5) as usize]
 }
 
+/// Colours of the heat map, from t = 0 to 1.
+const HEAT_STEPS: usize = 256;
+
 /// A relMSE estimate as a colour: log scale from 1e-5 (black) through
-/// purple, orange and yellow to 1 and above (white).
+/// purple, orange and yellow to 1 and above (white). The logarithm is
+/// read off the float's exponent and mantissa (within 0.03 of a decade,
+/// invisible in a colour map) and the colour off a table.
 pub fn heat(e: f32) -> [u8; 3] {
-    const STOPS: [[f32; 3]; 5] =
-        [[0.0, 0.0, 0.0], [0.34, 0.06, 0.43], [0.87, 0.32, 0.23], [0.99, 0.8, 0.15], [1.0; 3]];
-    let t = if e > 0.0 && e.is_finite() { ((e.log10() + 5.0) / 5.0).clamp(0.0, 1.0) } else { 0.0 };
-    let x = t * (STOPS.len() - 1) as f32;
-    let i = (x as usize).min(STOPS.len() - 2);
-    let f = x - i as f32;
-    let c = |k: usize| ((STOPS[i][k] * (1.0 - f) + STOPS[i + 1][k] * f) * 255.0 + 0.5) as u8;
-    [c(0), c(1), c(2)]
+    static TABLE: std::sync::OnceLock<Vec<[u8; 3]>> = std::sync::OnceLock::new();
+    let t = TABLE.get_or_init(|| {
+        const STOPS: [[f32; 3]; 5] =
+            [[0.0, 0.0, 0.0], [0.34, 0.06, 0.43], [0.87, 0.32, 0.23], [0.99, 0.8, 0.15], [1.0; 3]];
+        (0..=HEAT_STEPS)
+            .map(|k| {
+                let x = k as f32 / HEAT_STEPS as f32 * (STOPS.len() - 1) as f32;
+                let i = (x as usize).min(STOPS.len() - 2);
+                let f = x - i as f32;
+                let c = |j: usize| {
+                    ((STOPS[i][j] * (1.0 - f) + STOPS[i + 1][j] * f) * 255.0 + 0.5) as u8
+                };
+                [c(0), c(1), c(2)]
+            })
+            .collect()
+    });
+    if !(e > 0.0 && e.is_finite()) {
+        return t[0];
+    }
+    let bits = e.to_bits();
+    let log2 = ((bits >> 23) as f32 - 127.0) + (bits & 0x7f_ffff) as f32 / (1 << 23) as f32;
+    let x = ((log2 * std::f32::consts::LOG10_2 + 5.0) / 5.0).clamp(0.0, 1.0);
+    t[(x * HEAT_STEPS as f32 + 0.5) as usize]
 }
 
 fn put(out: &mut Vec<u8>, v: u32) {
