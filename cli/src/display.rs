@@ -13,7 +13,7 @@
 
 use farm_common::geometry::{Bounds2i, Point2i};
 use farm_common::image::{ImagePiece, RgbImage};
-use farm_coordinator::live::pieces;
+use farm_coordinator::live::{pieces, whole_pieces};
 use std::io::Write;
 use std::net::{TcpStream, ToSocketAddrs};
 use std::time::{Duration, Instant};
@@ -160,16 +160,7 @@ impl Display {
     /// bits, and the per-pixel error estimate as a second image.
     pub fn finish(&mut self, image: &RgbImage, error: Option<&[f32]>) {
         let (w, h) = (image.width as i32, image.height as i32);
-        let full = Bounds2i::new(Point2i::new(0, 0), Point2i::new(w, h));
-        let parts: Vec<ImagePiece> = pieces(w, h, full)
-            .map(|(_, b)| {
-                let pixels = b.iter().map(|q| image.pixels[(q.y * w + q.x) as usize]).collect();
-                let img =
-                    RgbImage { width: b.width() as usize, height: b.height() as usize, pixels };
-                ImagePiece { bounds: b, image: img, error: None }
-            })
-            .collect();
-        self.pieces(&parts);
+        self.pieces(&whole_pieces(image, None));
         if let Some(e) = error {
             let title = self.title.rsplit_once(" (").map_or(self.title.clone(), |t| t.0.into());
             self.show(&format!("{title} relMSE"), w, h, &[("relMSE", e.to_vec())]);

@@ -11,7 +11,7 @@
 
 use crate::merge::Film;
 use farm_common::geometry::{Bounds2i, Point2i};
-use farm_common::image::ImagePiece;
+use farm_common::image::{ImagePiece, RgbImage};
 
 /// Side of the pieces a whole image is sent in (pbrt-v4 sends tev 128×128).
 pub const PIECE: i32 = 128;
@@ -34,6 +34,23 @@ pub fn pieces(width: i32, height: i32, r: Bounds2i) -> impl Iterator<Item = (usi
             ((py * cols + px) as usize, Bounds2i::new(min, max))
         })
     })
+}
+
+/// A whole image (and its per-pixel error map, if given) as
+/// [`PIECE`]-sized pieces, as a finished image is sent to a display.
+pub fn whole_pieces(image: &RgbImage, error: Option<&[f32]>) -> Vec<ImagePiece> {
+    let (w, h) = (image.width as i32, image.height as i32);
+    let full = Bounds2i::new(Point2i::new(0, 0), Point2i::new(w, h));
+    pieces(w, h, full)
+        .map(|(_, b)| {
+            let idx: Vec<usize> = b.iter().map(|q| (q.y * w + q.x) as usize).collect();
+            let pixels = idx.iter().map(|&i| image.pixels[i]).collect();
+            let img = RgbImage { width: b.width() as usize, height: b.height() as usize, pixels };
+            let err =
+                error.map(|e| idx.iter().map(|&i| e.get(i).copied().unwrap_or(0.0)).collect());
+            ImagePiece { bounds: b, image: img, error: err }
+        })
+        .collect()
 }
 
 /// What one watcher has seen of a film.

@@ -59,6 +59,37 @@ pub async fn run(
     }
 }
 
+/// When a server beside the worker stops.
+type Shutdown = std::pin::Pin<Box<dyn Future<Output = ()> + Send>>;
+
+/// Serves `what` on `listener` in the background until the returned guard
+/// is dropped.
+fn serve_beside<Fut>(
+    listener: tokio::net::TcpListener,
+    what: &'static str,
+    serve: impl FnOnce(tokio::net::TcpListener, Shutdown) -> Fut,
+) -> oneshot::Sender<()>
+where
+    Fut: Future<Output = Result<(), tonic::transport::Error>> + Send + 'static,
+{
+    if let Ok(bound) = listener.local_addr() {
+        tracing::info!(%bound, "serving {what}");
+    }
+    let (guard, stopped) = oneshot::channel::<()>();
+    let server = serve(
+        listener,
+        Box::pin(async move {
+            let _ = stopped.await;
+        }),
+    );
+    tokio::spawn(async move {
+        if let Err(e) = server.await {
+            tracing::warn!(error = %e, "{what} server failed");
+        }
+    });
+    guard
+}
+
 /// Resolves once `stop` says so (or its sender is gone).
 async fn stopped(stop: &mut watch::Receiver<bool>) {
     let _ = stop.wait_for(|s| *s).await;
@@ -94,41 +125,25 @@ async fn run_until_stopped(
     mut stop: watch::Receiver<bool>,
 ) -> Result<WorkerSummary, Error> {
     let pool = CpuPool::new(config.render_threads())?;
-    // Health is served until this function returns, whatever the coordinator does.
-    let (_health_guard, health_stopped) = oneshot::channel::<()>();
+    // Health and metrics are served until this function returns, whatever
+    // the coordinator does (dropping a guard stops its server).
+    let mut _guards = Vec::new();
     if let Some(address) = config.health_listen {
         let listener = tokio::net::TcpListener::bind(address)
             .await
             .map_err(|source| Error::Health { address, source })?;
-        let bound = listener.local_addr().unwrap_or(address);
-        tracing::info!(%bound, "serving grpc.health.v1");
-        tokio::spawn(async move {
-            let shutdown = async {
-                let _ = health_stopped.await;
-            };
-            if let Err(e) = health::serve(listener, shutdown).await {
-                tracing::warn!(error = %e, "health server failed");
-            }
-        });
+        _guards.push(serve_beside(listener, "grpc.health.v1", health::serve));
     }
     let metrics = Arc::new(WorkerMetrics::default());
     metrics.threads.set(pool.threads() as i64);
-    let (_metrics_guard, metrics_stopped) = oneshot::channel::<()>();
     if let Some(address) = config.metrics_listen {
         let listener = tokio::net::TcpListener::bind(address)
             .await
             .map_err(|source| Error::Metrics { address, source })?;
-        let bound = listener.local_addr().unwrap_or(address);
-        tracing::info!(%bound, "serving /metrics");
         let m = metrics.clone();
-        tokio::spawn(async move {
-            let shutdown = async {
-                let _ = metrics_stopped.await;
-            };
-            if let Err(e) = crate::metrics::serve(listener, m, shutdown).await {
-                tracing::warn!(error = %e, "metrics server failed");
-            }
-        });
+        _guards.push(serve_beside(listener, "/metrics", move |l, stop| {
+            crate::metrics::serve(l, m, stop)
+        }));
     }
     let renderers = RendererCache::new(DEFAULT_RENDERERS, Arc::default(), pool.clone());
     let max_in_flight = config.in_flight(pool.threads());

@@ -84,7 +84,7 @@ impl Scheduler {
 
     /// Jobs and workers for `farm status`: the dashboard's rows, cut down.
     pub fn status(&self) -> (Vec<JobRow>, Vec<WorkerRow>) {
-        let (jobs, workers) = self.views(std::time::Instant::now(), |_, _| None);
+        let (jobs, workers) = self.views(std::time::Instant::now(), |_| None);
         let jobs = jobs
             .into_iter()
             .map(|j| JobRow {

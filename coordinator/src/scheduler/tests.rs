@@ -443,7 +443,7 @@ fn a_raised_priority_takes_the_next_free_slot_and_views_tell_the_truth() {
     s.tile_done(w, a.key(), render(&geometry(), a.tile), RayStats::default(), &mut out);
     let next = out.take();
     assert_eq!(next[0].1.job, second, "the raised job goes first");
-    let (jobs, workers) = s.views(t0 + Duration::from_secs(2), |_, _| Some(0.5));
+    let (jobs, workers) = s.views(t0 + Duration::from_secs(2), |_| Some(0.5));
     let v = |id: JobId| jobs.iter().find(|j| j.id == id.0).unwrap().clone();
     assert_eq!((v(first).tiles_done, v(first).state, v(first).rel_mse), (1, "running", Some(0.5)));
     assert_eq!(v(second).priority, 5);
@@ -470,7 +470,7 @@ fn a_worker_failing_a_job_too_often_shows_as_blocklisted() {
         let (w, a) = out.take().pop().expect("a tile");
         s.tile_failed(w, a.key(), "boom".into(), true, &mut out);
     }
-    let (_, workers) = s.views(t0, |_, _| None);
+    let (_, workers) = s.views(t0, |_| None);
     assert_eq!(workers[0].failures, 3);
     assert_eq!(workers[0].blocklisted, vec![job.0]);
 }

@@ -83,11 +83,11 @@ pub struct Gauges {
 
 impl Scheduler {
     /// Every job and worker as the dashboard shows them; `rel_mse(job)`
-    /// gives a running job's estimate so far (the caller may cache it).
+    /// gives a running job's estimate so far (see `Film::running_estimate`).
     pub fn views(
         &self,
         now: Instant,
-        mut rel_mse: impl FnMut(JobId, &crate::merge::Film) -> Option<f64>,
+        mut rel_mse: impl FnMut(JobId) -> Option<f64>,
     ) -> (Vec<JobView>, Vec<WorkerView>) {
         let max_fail = self.config.max_worker_failures;
         let jobs = self
@@ -101,7 +101,7 @@ impl Scheduler {
                     e * f64::from(total - j.done_tiles.min(total)) / f64::from(j.done_tiles)
                 });
                 let estimate = match &j.film {
-                    Some(f) if j.done_tiles > 0 => rel_mse(j.id, f),
+                    Some(_) if j.done_tiles > 0 => rel_mse(j.id),
                     _ => j.rel_mse,
                 };
                 let holders: HashSet<WorkerId> = j.in_flight.values().map(|(w, _)| *w).collect();

@@ -3,6 +3,9 @@
 //! and replies.
 
 pub(crate) mod events;
+mod from_worker;
+mod live;
+mod outbox;
 mod service;
 
 pub use events::{Event, FromWorker};

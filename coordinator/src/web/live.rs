@@ -17,14 +17,13 @@ use axum::body::Body;
 use axum::extract::{Path, Query, State};
 use axum::http::{header, HeaderValue, StatusCode};
 use axum::response::{IntoResponse, Response};
-use farm_common::geometry::{Bounds2i, Point2i};
 use farm_common::ids::JobId;
 use farm_common::image::{ImagePiece, RgbImage};
 use farm_proto::convert::ImageAssembler;
 use prost::Message;
 
 #[derive(serde::Deserialize)]
-pub(super) struct From {
+pub(super) struct Since {
     #[serde(default)]
     from: usize,
 }
@@ -113,23 +112,6 @@ pub fn encode(width: u32, height: u32, next: usize, state: u32, pieces: &[ImageP
     out
 }
 
-/// A finished image as pieces of at most 128×128 (the same the live
-/// pieces are).
-fn whole(image: &RgbImage, error: Option<&[f32]>) -> Vec<ImagePiece> {
-    let (w, h) = (image.width as i32, image.height as i32);
-    let full = Bounds2i::new(Point2i::new(0, 0), Point2i::new(w, h));
-    crate::live::pieces(w, h, full)
-        .map(|(_, b)| {
-            let idx: Vec<usize> = b.iter().map(|q| (q.y * w + q.x) as usize).collect();
-            let pixels = idx.iter().map(|&i| image.pixels[i]).collect();
-            let img = RgbImage { width: b.width() as usize, height: b.height() as usize, pixels };
-            let err =
-                error.map(|e| idx.iter().map(|&i| e.get(i).copied().unwrap_or(0.0)).collect());
-            ImagePiece { bounds: b, image: img, error: err }
-        })
-        .collect()
-}
-
 fn binary(bytes: Vec<u8>) -> Response {
     let mut r = Response::new(Body::from(bytes));
     r.headers_mut()
@@ -159,7 +141,7 @@ pub(super) async fn live(
     State(web): State<Web>,
     axum::Extension(caller): axum::Extension<Caller>,
     Path(id): Path<u64>,
-    Query(q): Query<From>,
+    Query(q): Query<Since>,
 ) -> Response {
     let job = JobId(id);
     if let Err(refused) = may_touch(&web, &caller, job).await {
@@ -171,7 +153,7 @@ pub(super) async fn live(
     };
     let done = |image: &RgbImage, error: Option<&[f32]>| {
         let (w, h) = (image.width as u32, image.height as u32);
-        binary(encode(w, h, 0, 1, &whole(image, error)))
+        binary(encode(w, h, 0, 1, &crate::live::whole_pieces(image, error)))
     };
     match answer {
         LiveAnswer::Running { width, height, next, pieces } => {
@@ -190,6 +172,7 @@ pub(super) async fn live(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use farm_common::geometry::{Bounds2i, Point2i};
 
     #[test]
     fn tone_and_heat_maps_are_monotone_and_bounded() {

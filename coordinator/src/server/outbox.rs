@@ -1,0 +1,168 @@
+//! The gRPC [`Outbox`]: what the scheduler sends goes down workers' Work
+//! streams and watchers' WatchJob streams, what it asks to keep goes to
+//! the journal, and what happens is counted for `/metrics`.
+
+use crate::error::Error;
+use crate::live::LiveCursor;
+use crate::metrics::Metrics;
+use crate::scheduler::{Assignment, JobUpdate, Outbox, Record};
+use crate::state::{Command, Journal};
+use farm_common::ids::{JobId, TileAttempt, WorkerId};
+use farm_common::stats::RayStats;
+use farm_proto::convert::{image_chunks, ImageFacts};
+use farm_proto::v1::{self, coordinator_message, job_event};
+use prost::Message;
+use std::collections::HashMap;
+use std::sync::Arc;
+use std::time::Instant;
+use tokio::sync::{mpsc, oneshot};
+use tonic::Status;
+
+/// Messages to a worker's Work stream.
+pub type WorkerTx = mpsc::UnboundedSender<Result<v1::CoordinatorMessage, Status>>;
+/// Messages to a WatchJob stream.
+pub type WatchTx = mpsc::UnboundedSender<Result<v1::JobEvent, Status>>;
+/// Live previews to a WatchJob stream: bounded, so a reader that falls
+/// behind is sent less, not queued more.
+pub type LiveTx = mpsc::Sender<Result<v1::JobEvent, Status>>;
+
+#[derive(Default)]
+pub(super) struct GrpcOutbox {
+    pub(super) workers: HashMap<WorkerId, WorkerTx>,
+    pub(super) watchers: HashMap<JobId, Vec<WatchTx>>,
+    /// Watchers of the image as it renders, each with what it has seen.
+    pub(super) live: HashMap<JobId, Vec<(LiveTx, LiveCursor)>>,
+    /// Where changes are made durable, with a state directory.
+    pub(super) journal: Option<Journal>,
+    /// What is counted for `/metrics`.
+    pub(super) metrics: Arc<Metrics>,
+    /// When each tile out was handed out (for the latency histogram).
+    pub(super) handed: HashMap<TileAttempt, Instant>,
+}
+
+fn rpc_stats(s: &RayStats) -> Option<v1::RayStats> {
+    Some(v1::RayStats::from(s))
+}
+
+/// The protocol form of a job update: one event, or for a finished image
+/// one event per chunk of rows.
+pub(crate) fn job_events(update: &JobUpdate) -> Vec<v1::JobEvent> {
+    let one = |kind| vec![v1::JobEvent { kind: Some(kind) }];
+    match update {
+        JobUpdate::Progress { done, total, workers, stats } => {
+            one(job_event::Kind::Progress(v1::JobProgress {
+                tiles_done: *done,
+                tiles_total: *total,
+                workers_active: *workers,
+                stats: rpc_stats(stats),
+            }))
+        }
+        JobUpdate::Finished(f) => {
+            let facts = ImageFacts { spp: f.spp, render_seconds: f.render_seconds, stats: f.stats };
+            let error = f.error.as_ref().map(|e| (e.per_pixel.as_slice(), e.rel_mse));
+            image_chunks(&f.image, error, &facts)
+                .into_iter()
+                .map(|img| v1::JobEvent { kind: Some(job_event::Kind::Image(img)) })
+                .collect()
+        }
+        JobUpdate::Failed(m) => one(job_event::Kind::Failed(v1::JobFailed { message: m.clone() })),
+    }
+}
+
+impl GrpcOutbox {
+    /// A worker answered hand-out `key`: its latency is observed.
+    pub(super) fn answered(&mut self, key: &TileAttempt, now: Instant) {
+        if let Some(t) = self.handed.remove(key) {
+            self.metrics.tile_latency.observe(now.duration_since(t).as_secs_f64());
+        }
+    }
+}
+
+impl Outbox for GrpcOutbox {
+    fn assign(&mut self, worker: WorkerId, a: Assignment) {
+        self.metrics.tiles_dispatched.inc();
+        if a.attempt > 0 {
+            self.metrics.tiles_retried.inc();
+        }
+        self.handed.insert(a.key(), Instant::now());
+        let msg = v1::CoordinatorMessage {
+            kind: Some(coordinator_message::Kind::Assign(v1::TileAssignment {
+                job_id: a.job.0,
+                tile: a.tile.0,
+                attempt: a.attempt,
+                scene_hash: a.scene_hash,
+                spp: a.spp,
+            })),
+        };
+        if let Some(tx) = self.workers.get(&worker) {
+            let _ = tx.send(Ok(msg));
+        }
+    }
+
+    fn cancel(&mut self, worker: WorkerId, job: JobId) {
+        let msg = v1::CoordinatorMessage {
+            kind: Some(coordinator_message::Kind::Cancelled(v1::JobCancelled { job_id: job.0 })),
+        };
+        if let Some(tx) = self.workers.get(&worker) {
+            let _ = tx.send(Ok(msg));
+        }
+    }
+
+    fn disconnect(&mut self, worker: WorkerId) {
+        if let Some(tx) = self.workers.remove(&worker) {
+            let _ = tx.send(Err(Error::WorkerSilent.into()));
+        }
+    }
+
+    fn notify(&mut self, job: JobId, update: JobUpdate) {
+        let final_update = !matches!(update, JobUpdate::Progress { .. });
+        if let Some(list) = self.watchers.get_mut(&job) {
+            let events = job_events(&update);
+            list.retain(|tx| events.iter().all(|ev| tx.send(Ok(ev.clone())).is_ok()));
+        }
+        if final_update {
+            self.watchers.remove(&job);
+            self.live.remove(&job);
+            self.handed.retain(|k, _| k.job != job);
+        }
+    }
+
+    fn record(&mut self, change: Record<'_>) {
+        if let Record::Merged { stats, .. } = &change {
+            self.metrics.tiles_merged.inc();
+            self.metrics.add_rays(stats);
+        }
+        if let Some(journal) = &self.journal {
+            journal.record(change);
+        }
+    }
+
+    fn durable(&self) -> bool {
+        self.journal.is_some()
+    }
+}
+
+/// Streams a finished job's image from the journal to a watcher.
+pub(super) fn send_stored(journal: &Journal, job: JobId, tx: WatchTx) {
+    let (reply, rx) = oneshot::channel();
+    journal.send(Command::ReadImage { job: job.0, reply });
+    tokio::spawn(async move {
+        let events = rx.await.unwrap_or_default();
+        if events.is_empty() {
+            let _ = tx.send(Err(Status::data_loss(format!("the image of job {} is lost", job.0))));
+        }
+        for bytes in events {
+            match v1::JobEvent::decode(bytes.as_slice()) {
+                Ok(ev) => {
+                    if tx.send(Ok(ev)).is_err() {
+                        return;
+                    }
+                }
+                Err(e) => {
+                    let _ = tx.send(Err(Status::data_loss(format!("job {}: {e}", job.0))));
+                    return;
+                }
+            }
+        }
+    });
+}
