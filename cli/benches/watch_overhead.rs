@@ -12,7 +12,15 @@
 //! The farm is real processes on loopback: an insecure coordinator, two
 //! workers of one thread, `farm submit --coordinator`. The "dashboard" is
 //! this program making the requests a job page's script makes: the live
-//! image every second and the job's facts every two.
+//! image every second and the job's facts every two, and the finished
+//! image once the render ends (the coordinator's CPU is read after it).
+//!
+//! CPU time on a shared machine varies by more than the few percent being
+//! measured, so `FARM_CALLGRIND=1` runs the coordinator under valgrind's
+//! callgrind and also reports the instructions it executed during each
+//! render (zeroed before, dumped after, with `callgrind_control`): a count
+//! that does not depend on the machine's load. Give it more samples per
+//! pixel (the coordinator runs some 50× slower under valgrind).
 
 use std::io::{BufRead, BufReader, Read, Write};
 use std::net::{TcpListener, TcpStream};
@@ -116,7 +124,10 @@ fn dashboard(addr: String, stop: Arc<AtomicBool>) -> std::thread::JoinHandle<u64
         };
         browser.get(&format!("/jobs/{job}"));
         let (mut cursor, mut last_facts) = (0u32, Instant::now());
-        while !stop.load(Ordering::Relaxed) {
+        loop {
+            // Once the render has ended, one more look fetches the
+            // finished image, as the page does.
+            let last = stop.load(Ordering::Relaxed);
             let body = browser.get(&format!("/api/jobs/{job}/live?from={cursor}"));
             requests += 1;
             if body.len() >= 16 {
@@ -126,12 +137,18 @@ fn dashboard(addr: String, stop: Arc<AtomicBool>) -> std::thread::JoinHandle<u64
                     break;
                 }
             }
+            if last {
+                break;
+            }
             if last_facts.elapsed() >= Duration::from_secs(2) {
                 browser.get(&format!("/fragments/job/{job}"));
                 requests += 1;
                 last_facts = Instant::now();
             }
-            std::thread::sleep(Duration::from_millis(1000));
+            let t = Instant::now();
+            while t.elapsed() < Duration::from_secs(1) && !stop.load(Ordering::Relaxed) {
+                std::thread::sleep(Duration::from_millis(20));
+            }
         }
         requests
     })
@@ -164,11 +181,70 @@ fn tev_sink() -> (String, Arc<AtomicU64>) {
 struct Run {
     wall: f64,
     cpu: f64,
+    /// Instructions the coordinator executed, under callgrind.
+    instructions: Option<u64>,
     tev_bytes: u64,
     requests: u64,
 }
 
-fn render(url: &str, coord: u32, scene: &Path, out: &Path, spp: u32, watched: bool) -> Run {
+/// The coordinator under callgrind: its process and where it dumps.
+struct Callgrind {
+    pid: u32,
+    dir: PathBuf,
+}
+
+impl Callgrind {
+    fn control(&self, flag: &str) {
+        let ok = Command::new("callgrind_control")
+            .args([flag, &self.pid.to_string()])
+            .stdout(Stdio::null())
+            .status()
+            .is_ok_and(|s| s.success());
+        assert!(ok, "callgrind_control {flag} failed");
+    }
+
+    /// Zeroes the counts.
+    fn zero(&self) {
+        self.control("-z");
+    }
+
+    /// Dumps the counts since the last zero and returns their total.
+    fn dump(&self) -> u64 {
+        let before = self.dumps();
+        self.control("-d");
+        let newest = self
+            .dumps()
+            .into_iter()
+            .filter(|p| !before.contains(p))
+            .max_by_key(|p| std::fs::metadata(p).and_then(|m| m.modified()).ok())
+            .expect("a new callgrind dump");
+        let text = std::fs::read_to_string(&newest).expect("read the dump");
+        let total = text
+            .lines()
+            .find_map(|l| l.strip_prefix("totals:").or_else(|| l.strip_prefix("summary:")))
+            .and_then(|v| v.split_whitespace().next()?.parse().ok())
+            .expect("a total in the dump");
+        total
+    }
+
+    fn dumps(&self) -> Vec<PathBuf> {
+        let mut v: Vec<PathBuf> = std::fs::read_dir(&self.dir)
+            .map(|d| d.flatten().map(|e| e.path()).collect())
+            .unwrap_or_default();
+        v.retain(|p| p.file_name().is_some_and(|n| n.to_string_lossy().starts_with("cg.")));
+        v
+    }
+}
+
+fn render(
+    url: &str,
+    coord: u32,
+    cg: Option<&Callgrind>,
+    scene: &Path,
+    out: &Path,
+    spp: u32,
+    watched: bool,
+) -> Run {
     // FARM_WATCH=tev or dashboard watches with one of the two only.
     let how = std::env::var("FARM_WATCH").unwrap_or_default();
     let (with_tev, with_page) = (watched && how != "dashboard", watched && how != "tev");
@@ -176,6 +252,9 @@ fn render(url: &str, coord: u32, scene: &Path, out: &Path, spp: u32, watched: bo
     let stop = Arc::new(AtomicBool::new(false));
     let (tev, bytes) = tev_sink();
     let poller = with_page.then(|| dashboard(addr, stop.clone()));
+    if let Some(cg) = cg {
+        cg.zero();
+    }
     let cpu0 = cpu_seconds(coord);
     let t0 = Instant::now();
     let mut cmd = farm();
@@ -188,10 +267,75 @@ fn render(url: &str, coord: u32, scene: &Path, out: &Path, spp: u32, watched: bo
     let status = cmd.status().expect("farm submit");
     assert!(status.success(), "farm submit failed");
     let wall = t0.elapsed().as_secs_f64();
-    let cpu = cpu_seconds(coord) - cpu0;
+    // The coordinator's work for watchers ends once the page has its
+    // finished image.
     stop.store(true, Ordering::Relaxed);
     let requests = poller.map(|p| p.join().unwrap_or(0)).unwrap_or(0);
-    Run { wall, cpu, tev_bytes: bytes.load(Ordering::Relaxed), requests }
+    let cpu = cpu_seconds(coord) - cpu0;
+    let instructions = cg.map(Callgrind::dump);
+    Run { wall, cpu, instructions, tev_bytes: bytes.load(Ordering::Relaxed), requests }
+}
+
+/// A coordinator (under callgrind if asked) and two workers of one thread.
+struct Farm {
+    url: String,
+    pid: u32,
+    callgrind: Option<Callgrind>,
+    _procs: Procs,
+}
+
+impl Farm {
+    fn start(dir: &Path, callgrind: bool) -> Farm {
+        std::fs::create_dir_all(dir).expect("farm dir");
+        let mut procs = Procs(Vec::new());
+        let mut coord = if callgrind {
+            let mut c = Command::new("valgrind");
+            let mut out = std::ffi::OsString::from("--callgrind-out-file=");
+            out.push(dir.join("cg.out"));
+            c.args(["--tool=callgrind", "--dump-instr=no"])
+                .arg(out)
+                .arg(env!("CARGO_BIN_EXE_farm"));
+            c
+        } else {
+            farm()
+        };
+        let mut coord = coord
+            .args(["coordinator", "--insecure", "--listen", "127.0.0.1:0", "--state-dir"])
+            .arg(dir.join("state"))
+            .stderr(Stdio::piped())
+            .spawn()
+            .expect("start the coordinator");
+        let stderr = coord.stderr.take().expect("stderr");
+        let pid = coord.id();
+        procs.0.push(coord);
+        let mut reader = BufReader::new(stderr);
+        let mut line = String::new();
+        while !line.contains("listening on") {
+            line.clear();
+            assert!(reader.read_line(&mut line).expect("coordinator log") > 0, "no banner");
+        }
+        std::thread::spawn(move || std::io::copy(&mut reader, &mut std::io::sink()));
+        let at = line.find("http://").expect("an http:// URL");
+        let url = line[at..].split_whitespace().next().expect("url").to_string();
+        for i in 0..2 {
+            let w = farm()
+                .args([
+                    "worker",
+                    "--coordinator",
+                    &url,
+                    "--threads",
+                    "1",
+                    "--name",
+                    &format!("w{i}"),
+                ])
+                .stderr(Stdio::null())
+                .spawn()
+                .expect("start a worker");
+            procs.0.push(w);
+        }
+        let callgrind = callgrind.then(|| Callgrind { pid, dir: dir.to_path_buf() });
+        Farm { url, pid, callgrind, _procs: procs }
+    }
 }
 
 fn median(mut v: Vec<f64>) -> f64 {
@@ -210,36 +354,25 @@ fn main() {
     let dir = std::env::temp_dir().join(format!("farm-watch-bench-{}", std::process::id()));
     std::fs::create_dir_all(&dir).expect("temp dir");
     let scene = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../scenes/example.pbrt");
-    let mut procs = Procs(Vec::new());
-    let mut coord = farm()
-        .args(["coordinator", "--insecure", "--listen", "127.0.0.1:0", "--state-dir"])
-        .arg(dir.join("state"))
-        .stderr(Stdio::piped())
-        .spawn()
-        .expect("start the coordinator");
-    let stderr = coord.stderr.take().expect("stderr");
-    let coord_pid = coord.id();
-    procs.0.push(coord);
-    let mut reader = BufReader::new(stderr);
-    let mut line = String::new();
-    while !line.contains("listening on") {
-        line.clear();
-        assert!(reader.read_line(&mut line).expect("coordinator log") > 0, "no banner");
-    }
-    std::thread::spawn(move || std::io::copy(&mut reader, &mut std::io::sink()));
-    let at = line.find("http://").expect("an http:// URL");
-    let url = line[at..].split_whitespace().next().expect("url").to_string();
-    for i in 0..2 {
-        let w = farm()
-            .args(["worker", "--coordinator", &url, "--threads", "1", "--name", &format!("w{i}")])
-            .stderr(Stdio::null())
-            .spawn()
-            .expect("start a worker");
-        procs.0.push(w);
-    }
+    let callgrind = std::env::var("FARM_CALLGRIND").is_ok_and(|v| v == "1");
     let out = dir.join("out.exr");
-    // Warm-up: workers fetch the scene and build it once.
-    render(&url, coord_pid, &scene, &out, spp, false);
+    let mut n = 0;
+    let mut start = || {
+        n += 1;
+        let farm = Farm::start(&dir.join(format!("farm-{n}")), callgrind);
+        // Warm-up: workers fetch the scene and build it once.
+        render(&farm.url, farm.pid, None, &scene, &out, 1, false);
+        farm
+    };
+    // Under callgrind each render gets a farm of its own, so the journal's
+    // history (whose SQLite costs vary with it by more than watching
+    // costs) is the same for both.
+    let shared = (!callgrind).then(&mut start);
+    let mut run = |watched: bool| {
+        let fresh = callgrind.then(&mut start);
+        let farm = fresh.as_ref().or(shared.as_ref()).expect("a farm");
+        render(&farm.url, farm.pid, farm.callgrind.as_ref(), &scene, &out, spp, watched)
+    };
     println!("watch overhead: example.pbrt at {spp} spp, 2 workers × 1 thread, {rounds} pairs");
     println!(
         "{:>5}  {:>11} {:>11}  {:>11} {:>11}  {:>10} {:>8}",
@@ -250,18 +383,21 @@ fn main() {
         let order = if r % 2 == 0 { [false, true] } else { [true, false] };
         let mut pair = [None, None];
         for w in order {
-            pair[usize::from(w)] = Some(render(&url, coord_pid, &scene, &out, spp, w));
+            pair[usize::from(w)] = Some(run(w));
         }
         let [Some(p), Some(w)] = pair else { unreachable!() };
+        let ins = |r: &Run| r.instructions.map(|i| format!("  {:>14} ins", i)).unwrap_or_default();
         println!(
-            "{:>5}  {:>10.3}s {:>10.3}s  {:>10.3}s {:>10.3}s  {:>10} {:>8}",
+            "{:>5}  {:>10.3}s {:>10.3}s  {:>10.3}s {:>10.3}s  {:>10} {:>8}{}{}",
             r + 1,
             p.wall,
             w.wall,
             p.cpu,
             w.cpu,
             w.tev_bytes,
-            w.requests
+            w.requests,
+            ins(&p),
+            ins(&w)
         );
         assert!(w.tev_bytes > 0 || w.requests > 2, "the watched render was not watched");
         plain.push(p);
@@ -272,6 +408,20 @@ fn main() {
     let (pc, wc) = (m(&plain, |r| r.cpu), m(&watched, |r| r.cpu));
     println!("median {:>10.3}s {:>10.3}s  {:>10.3}s {:>10.3}s", pw, ww, pc, wc);
     println!("watched ÷ plain: wall {:.3}, coordinator CPU {:.3}", ww / pw, wc / pc);
-    drop(procs);
-    std::fs::remove_dir_all(dir).ok();
+    if callgrind {
+        let (pi, wi) = (
+            m(&plain, |r| r.instructions.unwrap_or(0) as f64),
+            m(&watched, |r| r.instructions.unwrap_or(0) as f64),
+        );
+        println!(
+            "coordinator instructions (median): plain {pi:.0}, watched {wi:.0}, ratio {:.4}",
+            wi / pi
+        );
+    }
+    drop(shared);
+    if callgrind {
+        println!("callgrind dumps (for callgrind_annotate) kept in {}", dir.display());
+    } else {
+        std::fs::remove_dir_all(dir).ok();
+    }
 }

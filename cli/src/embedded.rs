@@ -208,7 +208,7 @@ where
         }
         if let (Some(d), Some(film)) = (display.as_deref_mut(), sched.film(job)) {
             if d.due() {
-                d.pieces(&live.take(film, usize::MAX, false));
+                d.pieces(&live.take_pieces(film, usize::MAX));
             }
         }
         if out.outstanding == 0 {

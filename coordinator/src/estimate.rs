@@ -111,11 +111,20 @@ impl ErrorEstimate {
         scale: f32,
         samples: Samples,
     ) -> Option<Self> {
+        Self::from_values(bounds, pixels.iter().map(|p| pixel_error(p, scale, samples)))
+    }
+
+    /// The estimate from each pixel's [`pixel_error`], row-major over
+    /// `bounds` (summed in that order).
+    pub fn from_values(
+        bounds: Bounds2i,
+        values: impl ExactSizeIterator<Item = Option<f64>>,
+    ) -> Option<Self> {
         let (width, height) = (bounds.width().max(0) as usize, bounds.height().max(0) as usize);
-        let mut per_pixel = Vec::with_capacity(pixels.len());
+        let mut per_pixel = Vec::with_capacity(values.len());
         let (mut sum, mut counted) = (0.0f64, 0usize);
-        for p in pixels {
-            let Some(e) = pixel_error(p, scale, samples) else {
+        for v in values {
+            let Some(e) = v else {
                 per_pixel.push(0.0);
                 continue;
             };

@@ -3,8 +3,9 @@
 //!
 //! A watcher keeps a [`LiveCursor`]. The film lists the pixel bounds of
 //! each tile as it is taken ([`Film::changes_since`]); the cursor queues
-//! the ones it has not seen, and hands them out as they stand
-//! ([`Film::preview_sums`]) when the watcher is ready for more. Only what
+//! the ones it has not seen, and hands them out when the watcher is ready
+//! for more, to be read as they stand ([`Film::region_sums`],
+//! [`Film::preview`]). Only what
 //! changed is sent: over a whole render, a watcher is sent each tile's
 //! pixel bounds once (the film plus the tiles' filter skirts), however
 //! often it looks. What a watcher holds is bounded by the tile count.
@@ -93,14 +94,11 @@ impl LiveCursor {
         !self.pending.is_empty()
     }
 
-    /// Takes changed regions, oldest first, as they stand now: at least
+    /// Takes changed regions (image coordinates), oldest first: at least
     /// one, and no more once they hold `max_pixels`. The rest wait for the
-    /// next look. With `errors`, each comes with the error map of the
-    /// running estimate ([`Film::running_estimate`], as last brought up to
-    /// date: tiles that arrived early show once merged).
-    pub fn take(&mut self, film: &Film, max_pixels: usize, errors: bool) -> Vec<ImagePiece> {
+    /// next look. The caller reads them off the film as they stand now.
+    pub fn take(&mut self, film: &Film, max_pixels: usize) -> Vec<Bounds2i> {
         self.catch_up(film);
-        let b = film.geometry().cropped_pixel_bounds;
         let mut n = 0;
         let mut pixels = 0usize;
         for r in &self.pending {
@@ -129,11 +127,18 @@ impl LiveCursor {
             }
         }
         strips
+    }
+
+    /// [`LiveCursor::take`], with each region's pixels as they stand, for
+    /// a display in the same process.
+    pub fn take_pieces(&mut self, film: &Film, max_pixels: usize) -> Vec<ImagePiece> {
+        let b = film.geometry().cropped_pixel_bounds;
+        self.take(film, max_pixels)
             .into_iter()
-            .map(|r| {
-                let sums = film.preview_sums(shift(r, b.min.x, b.min.y));
-                let error = if errors { film.running_error_map(r) } else { None };
-                ImagePiece { bounds: r, image: film.resolve(&sums), error }
+            .map(|r| ImagePiece {
+                bounds: r,
+                image: film.preview(shift(r, b.min.x, b.min.y)),
+                error: None,
             })
             .collect()
     }
@@ -186,35 +191,31 @@ mod tests {
         let g = geometry(300, 40);
         let mut film = Film::new(g.clone());
         let mut live = LiveCursor::new();
-        assert!(live.take(&film, usize::MAX, false).is_empty(), "nothing rendered, nothing sent");
+        assert!(live.take(&film, usize::MAX).is_empty(), "nothing rendered, nothing sent");
         // A tile of the last column arrives early: it shows before the merge reaches it.
         let last = g.tile_count() - 1;
         film.accept(TileId(last), lit(&g, last, 2.0)).unwrap();
-        let r = live.take(&film, usize::MAX, false);
+        let r = live.take_pieces(&film, usize::MAX);
         assert_eq!(r.len(), 1);
         let b = g.tile_pixel_bounds(TileId(last));
         assert_eq!(r[0].bounds, b, "exactly the tile's pixels (the film starts at 0, 0)");
         assert!(r[0].image.pixels.iter().all(|p| *p == [2.0; 3]));
-        assert!(live.take(&film, usize::MAX, false).is_empty(), "sent once");
+        assert!(live.take(&film, usize::MAX).is_empty(), "sent once");
         // Every tile: the regions come out up to a budget a look, and the rest wait.
         for t in 0..last {
             film.accept(TileId(t), lit(&g, t, 1.0)).unwrap();
         }
         let (t0, t1) = (g.tile_pixel_bounds(TileId(0)), g.tile_pixel_bounds(TileId(1)));
-        let strip = live.take(&film, t0.area() + t1.area(), false);
+        let strip = live.take(&film, t0.area() + t1.area());
         assert_eq!(strip.len(), 1, "a row's neighbours come out as one strip");
-        assert_eq!(strip[0].bounds, Bounds2i::new(t0.min, Point2i::new(t1.max.x, t0.max.y)));
-        assert_eq!(live.take(&film, 1, false).len(), 1, "at least one");
+        assert_eq!(strip[0], Bounds2i::new(t0.min, Point2i::new(t1.max.x, t0.max.y)));
+        assert_eq!(live.take(&film, 1).len(), 1, "at least one");
         assert!(live.pending());
-        let rest = live.take(&film, usize::MAX, false);
-        assert!(rest.iter().all(|r| r.bounds.width() <= PIECE));
+        let rest = live.take(&film, usize::MAX);
+        assert!(rest.iter().all(|r| r.width() <= PIECE));
         assert!(!live.pending());
         // A stateless watcher at position 0 sees the whole image as the film has it.
-        let mut fresh = LiveCursor::at(0);
-        assert!(fresh.clone().take(&film, usize::MAX, true)[0].error.is_none(), "not asked yet");
-        film.running_estimate();
-        let all = fresh.take(&film, usize::MAX, true);
-        assert!(all.iter().all(|r| r.error.as_ref().is_some_and(|e| e.len() == r.bounds.area())));
+        let all = LiveCursor::at(0).take_pieces(&film, usize::MAX);
         let image = film.image();
         let mut covered = vec![false; 300 * 40];
         for reg in &all {

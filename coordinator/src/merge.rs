@@ -5,11 +5,21 @@
 
 use crate::error::Error;
 use crate::estimate::{pixel_error, ErrorEstimate, Samples};
-use farm_common::film::{FilmGeometry, FilmTile, Pixel};
+use farm_common::film::{FilmGeometry, FilmTile};
 use farm_common::geometry::{Bounds2i, Point2i};
 use farm_common::ids::TileId;
 use farm_common::image::RgbImage;
 use std::collections::BTreeMap;
+
+/// Four floats as 16 little-endian bytes.
+#[inline]
+fn le_bytes(v: [f32; 4]) -> [u8; 16] {
+    let mut out = [0u8; 16];
+    for (d, x) in out.chunks_exact_mut(4).zip(v) {
+        d.copy_from_slice(&x.to_le_bytes());
+    }
+    out
+}
 
 /// Whether a tile was used.
 #[derive(Debug, PartialEq, Eq, Clone, Copy)]
@@ -37,8 +47,9 @@ pub struct Film {
 }
 
 /// The error estimate of the merged tiles, brought up to date a tile at a
-/// time when asked: each pixel's value as last computed (NaN where a half
-/// has no samples), their sum and count, and the tiles taken in so far.
+/// time when asked: each complete pixel's value (NaN where a half has no
+/// samples or the pixel is not complete yet), their sum and count, and the
+/// tiles taken in so far.
 #[derive(Debug, Default)]
 struct Running {
     per_pixel: Vec<f64>,
@@ -125,18 +136,28 @@ impl Film {
         }
     }
 
-    /// The render's estimate of its own error (`None` at one sample per pixel).
-    pub fn error_estimate(&self) -> Option<ErrorEstimate> {
+    /// The render's estimate of its own error (`None` at one sample per
+    /// pixel). Once complete, a film whose running estimate was asked for
+    /// finishes that and reads it off (the same values, summed in the same
+    /// order: the same bits), so no pixel's error is computed twice.
+    pub fn error_estimate(&mut self) -> Option<ErrorEstimate> {
+        let b = self.geometry.cropped_pixel_bounds;
+        if self.is_complete() && self.running.per_pixel.len() == b.area() {
+            self.running_estimate();
+            let values = self.running.per_pixel.iter().map(|&e| (!e.is_nan()).then_some(e));
+            return ErrorEstimate::from_values(b, values);
+        }
         let g = &self.geometry;
         let samples = Samples::of(g.independent_samples);
-        ErrorEstimate::from_pixels(g.cropped_pixel_bounds, &self.sums.pixels, g.scale, samples)
+        ErrorEstimate::from_pixels(b, &self.sums.pixels, g.scale, samples)
     }
 
-    /// The estimate of [`Film::error_estimate`] over the tiles merged so
-    /// far, for a running job's display. It is updated over the tiles
-    /// merged since the last call only, so asking often costs little (the
-    /// first call allocates 8 bytes a pixel). Equal to the final estimate
-    /// up to the rounding of its running sum.
+    /// The estimate of [`Film::error_estimate`] over the pixels whose sums
+    /// are complete ([`FilmGeometry::tile_final_pixels`] of the tiles
+    /// merged so far), for a running job's display. Each pixel's error is
+    /// computed once, when its last tile is merged, so asking often costs
+    /// little (the first call allocates 8 bytes a pixel); once every tile
+    /// is in, [`Film::error_estimate`] reuses it.
     pub fn running_estimate(&mut self) -> Option<f64> {
         let g = &self.geometry;
         let b = g.cropped_pixel_bounds;
@@ -146,18 +167,17 @@ impl Film {
             r.per_pixel = vec![f64::NAN; b.area()];
         }
         for t in r.upto..self.next {
-            for p in g.tile_pixel_bounds(TileId(t)).intersect(&b).iter() {
-                let i = self.sums.pixel_bounds.offset(p);
-                let old = r.per_pixel[i];
-                if !old.is_nan() {
-                    r.sum -= old;
-                    r.counted -= 1;
-                }
-                let new = pixel_error(&self.sums.pixels[i], g.scale, samples);
-                r.per_pixel[i] = new.unwrap_or(f64::NAN);
-                if let Some(e) = new {
-                    r.sum += e;
-                    r.counted += 1;
+            let fin = g.tile_final_pixels(TileId(t)).intersect(&b);
+            for y in fin.min.y..fin.max.y {
+                let i = self.sums.pixel_bounds.offset(Point2i::new(fin.min.x, y));
+                let n = fin.width() as usize;
+                let out = &mut r.per_pixel[i..i + n];
+                for (e, p) in out.iter_mut().zip(&self.sums.pixels[i..i + n]) {
+                    if let Some(v) = pixel_error(p, g.scale, samples) {
+                        *e = v;
+                        r.sum += v;
+                        r.counted += 1;
+                    }
                 }
             }
         }
@@ -165,24 +185,32 @@ impl Film {
         (r.counted > 0).then(|| r.sum.max(0.0) / r.counted as f64)
     }
 
-    /// The running estimate's per-pixel values over `region` (image
-    /// coordinates, the crop's corner at 0, 0; 0 where there is none yet),
-    /// or `None` before [`Film::running_estimate`] was first asked for.
-    pub fn running_error_map(&self, region: Bounds2i) -> Option<Vec<f32>> {
+    /// Appends the running estimate's per-pixel values over `region`
+    /// (image coordinates, the crop's corner at 0, 0; 0 where there is
+    /// none yet) to `out` as little-endian f32, and returns true; or
+    /// returns false, appending nothing, before [`Film::running_estimate`]
+    /// was first asked for.
+    pub fn write_error_map(&self, region: Bounds2i, out: &mut Vec<u8>) -> bool {
         let b = self.geometry.cropped_pixel_bounds;
         let per_pixel = &self.running.per_pixel;
         if per_pixel.len() != b.area() {
-            return None;
+            return false;
         }
         let w = b.width() as usize;
         let full = Bounds2i::new(Point2i::new(0, 0), Point2i::new(b.width(), b.height()));
         let r = region.intersect(&full);
-        let mut out = Vec::with_capacity(r.area());
+        if r.is_empty() {
+            return true;
+        }
+        out.reserve(r.area() * 4);
         for y in r.min.y..r.max.y {
             let row = &per_pixel[y as usize * w..][r.min.x as usize..r.max.x as usize];
-            out.extend(row.iter().map(|&e| if e.is_nan() { 0.0 } else { e as f32 }));
+            for &e in row {
+                let v = if e.is_nan() { 0.0 } else { e as f32 };
+                out.extend_from_slice(&v.to_le_bytes());
+            }
         }
-        Some(out)
+        true
     }
 
     /// The regions changed since a watcher's `cursor` (0 at first), and
@@ -197,14 +225,16 @@ impl Film {
     /// written image is [`Film::image`]; this one's sums may be added in
     /// another order, so it can differ from it in the last bits.
     pub fn preview(&self, region: Bounds2i) -> RgbImage {
-        self.resolve(&self.preview_sums(region))
+        let sums = self.preview_sums(region);
+        let b = sums.pixel_bounds;
+        let scale = self.geometry.scale;
+        let pixels = sums.pixels.iter().map(|p| p.resolve(scale)).collect();
+        RgbImage { width: b.width() as usize, height: b.height() as usize, pixels }
     }
 
-    /// The sums behind [`Film::preview`]: the merged prefix plus the tiles
-    /// that arrived early, over `region` clipped to the film (the pending
-    /// tiles that meet it are few: a tile's bounds reach only its
-    /// neighbours).
-    pub fn preview_sums(&self, region: Bounds2i) -> FilmTile {
+    /// The sums over `region` (clipped to the film) as they stand: the
+    /// merged prefix plus the tiles that arrived early.
+    fn preview_sums(&self, region: Bounds2i) -> FilmTile {
         let b = region.intersect(&self.geometry.cropped_pixel_bounds);
         if b.is_empty() {
             return FilmTile::new(Bounds2i::default());
@@ -219,15 +249,44 @@ impl Film {
         part
     }
 
-    /// Sums (over their own bounds) resolved to pixel values, as the image is.
-    pub fn resolve(&self, sums: &FilmTile) -> RgbImage {
-        let b = sums.pixel_bounds;
+    /// The film as it stands over `region` (clipped to the film; as
+    /// [`Film::preview`] has it), unresolved: per pixel, row by row,
+    /// Σw·r, Σw·g, Σw·b and Σw as little-endian f32, 16 bytes. A watcher
+    /// resolves them ([`farm_common::film::resolve`] with the film's
+    /// scale), so the coordinator only copies.
+    pub fn region_sums(&self, region: Bounds2i) -> Vec<u8> {
+        let b = region.intersect(&self.geometry.cropped_pixel_bounds);
         if b.is_empty() {
-            return RgbImage { width: 0, height: 0, pixels: Vec::new() };
+            return Vec::new();
         }
-        let scale = self.geometry.scale;
-        let pixels = sums.pixels.iter().map(|p| resolve(p, scale)).collect();
-        RgbImage { width: b.width() as usize, height: b.height() as usize, pixels }
+        let n = b.width() as usize;
+        let mut out: Vec<[u8; 16]> = Vec::with_capacity(b.area());
+        for y in b.min.y..b.max.y {
+            let i = self.sums.pixel_bounds.offset(Point2i::new(b.min.x, y));
+            out.extend(self.sums.pixels[i..i + n].iter().map(|p| {
+                let [r, g, bl] = p.contrib;
+                le_bytes([r, g, bl, p.weight])
+            }));
+        }
+        // Tiles that arrived early add where they overlap (in the order of
+        // their ids; for display only).
+        for t in self.pending.values() {
+            let o = t.pixel_bounds.intersect(&b);
+            if o.is_empty() {
+                continue;
+            }
+            let m = o.width() as usize;
+            for y in o.min.y..o.max.y {
+                let row = Point2i::new(o.min.x, y);
+                let (s, d) = (t.pixel_bounds.offset(row), b.offset(row));
+                for (d, p) in out[d..d + m].iter_mut().zip(&t.pixels[s..s + m]) {
+                    let f = |k: usize| f32::from_le_bytes([d[k], d[k + 1], d[k + 2], d[k + 3]]);
+                    let [r, g, bl] = p.contrib;
+                    *d = le_bytes([f(0) + r, f(4) + g, f(8) + bl, f(12) + p.weight]);
+                }
+            }
+        }
+        out.into_flattened()
     }
 
     /// The image: weighted sums divided by weights, clamped at zero, times
@@ -235,19 +294,9 @@ impl Film {
     pub fn image(&self) -> RgbImage {
         let b = self.geometry.cropped_pixel_bounds;
         let scale = self.geometry.scale;
-        let pixels = self.sums.pixels.iter().map(|p| resolve(p, scale)).collect();
+        let pixels = self.sums.pixels.iter().map(|p| p.resolve(scale)).collect();
         RgbImage { width: b.width() as usize, height: b.height() as usize, pixels }
     }
-}
-
-/// A pixel's value: its weighted sum over its weight, clamped at zero, times `scale`.
-fn resolve(p: &Pixel, scale: f32) -> [f32; 3] {
-    let mut rgb = p.contrib;
-    if p.weight != 0.0 {
-        let inv = 1.0 / p.weight;
-        rgb = rgb.map(|v| (v * inv).max(0.0));
-    }
-    rgb.map(|v| v * scale)
 }
 
 /// What is wrong with a tile's sums, if anything: every sum must be finite,
@@ -389,6 +438,7 @@ mod tests {
     fn the_running_estimate_follows_the_merge_and_ends_on_the_final_one() {
         let g = film();
         let mut f = Film::new(g.clone());
+        let mut unwatched = Film::new(g.clone());
         assert_eq!(f.running_estimate(), None, "nothing merged");
         let n = g.tile_count();
         let halves = |id: u32| {
@@ -399,24 +449,69 @@ mod tests {
             }
             t
         };
+        let b = g.cropped_pixel_bounds;
+        let samples = Samples::of(g.independent_samples);
         for id in 0..n {
             f.accept(TileId(id), halves(id)).unwrap();
-            if id == n / 2 {
-                // Half-way: the estimate of the merged sums as they stand.
-                let direct = ErrorEstimate::from_pixels(
-                    g.cropped_pixel_bounds,
-                    &f.sums.pixels,
-                    g.scale,
-                    Samples::of(g.independent_samples),
-                )
-                .unwrap()
-                .rel_mse;
+            unwatched.accept(TileId(id), halves(id)).unwrap();
+            if id == n / 2 || id == 2 {
+                // Mid-render: the mean error of the pixels no later tile reaches.
+                let later: Vec<Bounds2i> =
+                    (id + 1..n).map(|t| g.tile_pixel_bounds(TileId(t))).collect();
+                let done = |p: Point2i| later.iter().all(|l| l.intersect(&single(p)).is_empty());
+                let errors: Vec<f64> = b
+                    .iter()
+                    .filter(|&p| done(p))
+                    .filter_map(|p| pixel_error(&f.sums.pixels[b.offset(p)], g.scale, samples))
+                    .collect();
+                let direct = errors.iter().sum::<f64>() / errors.len() as f64;
                 let running = f.running_estimate().unwrap();
                 assert!((running - direct).abs() <= 1e-12 * direct, "{running} vs {direct}");
+                let mut map = Vec::new();
+                assert!(f.write_error_map(b, &mut map));
+                let shown = map.chunks_exact(4).filter(|c| c != &[0; 4]).count();
+                assert_eq!(shown, errors.len(), "the map shows the complete pixels");
             }
         }
         let running = f.running_estimate().unwrap();
-        let last = f.error_estimate().unwrap().rel_mse;
-        assert!((running - last).abs() <= 1e-12 * last, "{running} vs {last}");
+        let watched = f.error_estimate().unwrap();
+        let plain = unwatched.error_estimate().unwrap();
+        assert_eq!(watched.rel_mse.to_bits(), plain.rel_mse.to_bits(), "the same bits");
+        assert_eq!(watched, plain);
+        assert!((running - plain.rel_mse).abs() <= 1e-12 * plain.rel_mse);
+    }
+
+    fn single(p: Point2i) -> Bounds2i {
+        Bounds2i::new(p, Point2i::new(p.x + 1, p.y + 1))
+    }
+
+    #[test]
+    fn sums_for_a_watcher_resolve_to_the_preview() {
+        let g = film();
+        let mut f = Film::new(g.clone());
+        // Tile 0 merged, tiles 2 and 3 early: all show.
+        f.accept(TileId(0), tile(&g, 0)).unwrap();
+        f.accept(TileId(2), tile(&g, 2)).unwrap();
+        f.accept(TileId(3), tile(&g, 3)).unwrap();
+        // The whole film, and regions beside the early tiles (rows in
+        // common, no pixel in common).
+        let beside = [TileId(0), TileId(2)].map(|t| g.tile_pixel_bounds(t));
+        for b in [g.cropped_pixel_bounds, beside[0], beside[1]] {
+            let bytes = f.region_sums(b);
+            assert_eq!(bytes.len(), b.area() * 16);
+            let v: Vec<f32> =
+                bytes.chunks_exact(4).map(|c| f32::from_le_bytes(c.try_into().unwrap())).collect();
+            let resolved: Vec<[f32; 3]> = v
+                .chunks_exact(4)
+                .map(|s| farm_common::film::resolve([s[0], s[1], s[2]], s[3], g.scale))
+                .collect();
+            assert_eq!(resolved, f.preview(b).pixels);
+        }
+        let all = f.preview(g.cropped_pixel_bounds).pixels;
+        let early = g.tile_pixel_bounds(TileId(3));
+        assert!(
+            all[g.cropped_pixel_bounds.offset(Point2i::new(early.max.x - 1, early.max.y - 1))][0]
+                > 0.0
+        );
     }
 }

@@ -22,7 +22,7 @@ pub use error::{Error, Result};
 
 /// The protocol version workers and clients must speak. Bump it on any
 /// incompatible change to the .proto files.
-pub const PROTOCOL_VERSION: u32 = 2;
+pub const PROTOCOL_VERSION: u32 = 3;
 
 /// Largest message the farm's services accept or send (images, tiles and
 /// blob chunks stay below it).

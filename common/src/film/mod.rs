@@ -9,5 +9,5 @@ pub use layout::{
     checked_layout, default_filter_radius, filter_radius, is_power_of_2, layout, round_up_pow2,
     sample_count, FilmError, FilmLayout, Halves, Limits, SamplerKind, MAX_MIN_DIST_MAX_SPP,
 };
-pub use tile::{FilmTile, Pixel};
+pub use tile::{resolve, FilmTile, Pixel};
 pub use tiling::{FilmGeometry, TILE_SIZE};

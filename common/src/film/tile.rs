@@ -26,6 +26,12 @@ impl Pixel {
         [r, g, b, self.weight, or, og, ob, self.second_weight]
     }
 
+    /// The pixel's value as the image shows it: see [`resolve`].
+    #[inline]
+    pub fn resolve(&self, scale: f32) -> [f32; 3] {
+        resolve(self.contrib, self.weight, scale)
+    }
+
     /// The inverse of [`Pixel::to_array`].
     pub fn from_array(v: [f32; 8]) -> Self {
         Pixel {
@@ -35,6 +41,18 @@ impl Pixel {
             second_weight: v[7],
         }
     }
+}
+
+/// A pixel's value from its sums: the weighted sum over the weight,
+/// clamped at zero, times the film's `scale` (pbrt-v3 `Film::WriteImage`).
+#[inline]
+pub fn resolve(contrib: [f32; 3], weight: f32, scale: f32) -> [f32; 3] {
+    let mut rgb = contrib;
+    if weight != 0.0 {
+        let inv = 1.0 / weight;
+        rgb = rgb.map(|v| (v * inv).max(0.0));
+    }
+    rgb.map(|v| v * scale)
 }
 
 /// The filtered samples of one tile: weighted sums over the tile's pixel

@@ -191,6 +191,32 @@ impl FilmGeometry {
         );
         Bounds2i::new(p0, p1).intersect(&self.cropped_pixel_bounds)
     }
+
+    /// The pixels whose sums are complete once tiles `0..=id` are merged in
+    /// order: those of the tile's pixel bounds that no later tile reaches.
+    /// Tiles go row by row and a later tile's pixels start no earlier than
+    /// its neighbour's to the right or below, so this is a rectangle; over
+    /// all tiles, these rectangles split the image's pixels exactly.
+    pub fn tile_final_pixels(&self, id: TileId) -> Bounds2i {
+        let mut b = self.tile_pixel_bounds(id);
+        let (nx, ny) = (self.n_tiles.x as u32, self.n_tiles.y as u32);
+        if nx == 0 {
+            return b;
+        }
+        if id.0 % nx + 1 < nx {
+            let right = self.tile_pixel_bounds(TileId(id.0 + 1));
+            if !right.is_empty() {
+                b.max.x = b.max.x.min(right.min.x);
+            }
+        }
+        if id.0 / nx + 1 < ny {
+            let below = self.tile_pixel_bounds(TileId(id.0 + nx));
+            if !below.is_empty() {
+                b.max.y = b.max.y.min(below.min.y);
+            }
+        }
+        b
+    }
 }
 
 /// The pixels of a `res.x × res.y` film.
@@ -262,5 +288,47 @@ mod tests {
             assert!(pb.is_empty() || f.cropped_pixel_bounds.intersect(&pb) == pb);
         }
         assert!(count.iter().all(|&c| c == 1));
+    }
+
+    #[test]
+    fn each_pixel_is_final_at_the_last_tile_that_reaches_it() {
+        let crop = |w: i32, h: i32, c: Bounds2i, r: f32| {
+            FilmGeometry::new(
+                Point2i::new(w, h),
+                c,
+                Vec2::new(r, r * 0.7),
+                1.0,
+                f32::INFINITY,
+                "x.exr".into(),
+                35.0,
+            )
+        };
+        let whole = |w, h| Bounds2i::new(Point2i::new(0, 0), Point2i::new(w, h));
+        let cases = [
+            crop(37, 21, whole(37, 21), 1.5),
+            crop(64, 48, whole(64, 48), 0.5),
+            crop(50, 40, whole(50, 40), 2.0),
+            crop(50, 40, whole(50, 40), 20.0),
+            crop(70, 60, Bounds2i::new(Point2i::new(13, 7), Point2i::new(51, 33)), 1.5),
+            crop(70, 60, Bounds2i::new(Point2i::new(16, 16), Point2i::new(17, 40)), 3.0),
+        ];
+        for f in cases {
+            let b = f.cropped_pixel_bounds;
+            let mut last = vec![None; b.area()];
+            let mut finals = vec![None; b.area()];
+            for t in 0..f.tile_count() {
+                for p in f.tile_pixel_bounds(TileId(t)).iter() {
+                    last[b.offset(p)] = Some(t);
+                }
+                let fin = f.tile_final_pixels(TileId(t));
+                assert!(fin.is_empty() || b.intersect(&fin) == fin);
+                for p in fin.iter() {
+                    assert_eq!(finals[b.offset(p)], None, "{p:?} final twice");
+                    finals[b.offset(p)] = Some(t);
+                }
+            }
+            assert!(last.iter().all(Option::is_some), "every pixel is reached");
+            assert_eq!(finals, last, "final at the last tile that reaches it ({b:?})");
+        }
     }
 }

@@ -439,7 +439,7 @@ impl Scheduler {
 
     pub(super) fn finish(&mut self, job: JobId, out: &mut impl Outbox) {
         let Some(j) = self.jobs.get_mut(&job) else { return };
-        let Some(film) = j.film.take() else { return };
+        let Some(mut film) = j.film.take() else { return };
         let render_seconds = j.started.map(|s| s.elapsed().as_secs_f64()).unwrap_or(0.0);
         let finished = std::sync::Arc::new(FinishedJob {
             image: film.image(),

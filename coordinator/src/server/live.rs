@@ -2,32 +2,23 @@
 //! live `WatchJob` streams each tick, and a dashboard page's look at a job.
 
 use super::outbox::GrpcOutbox;
-use crate::live::LiveCursor;
+use crate::live::shift;
 use crate::scheduler::{FinishedJob, JobUpdate, Scheduler, Snapshot};
 use farm_common::ids::JobId;
-use farm_common::image::ImagePiece;
-use farm_proto::convert::encode_preview;
+use farm_proto::convert::preview_region;
 use farm_proto::v1::{self, job_event};
 use tokio::sync::mpsc;
 
-/// Pixels in one preview event (16 bytes each with the error map): about
-/// 4 MiB, well under the message limit.
+/// Pixels in one preview event (16 bytes each): about 4 MiB, well under
+/// the message limit.
 const PIXELS_PER_EVENT: usize = 1 << 18;
 
 /// What a dashboard page is shown of a job's image.
 #[derive(Debug)]
 pub enum LiveAnswer {
-    /// Running: the pieces changed since the page's cursor, and its next cursor.
-    Running {
-        /// Image width.
-        width: u32,
-        /// Image height.
-        height: u32,
-        /// The cursor to pass next time.
-        next: usize,
-        /// What changed.
-        pieces: Vec<ImagePiece>,
-    },
+    /// Running: the page's answer ([`crate::web::live`]'s format), with
+    /// the pieces changed since its cursor.
+    Running(Vec<u8>),
     /// Done, with the image in memory.
     Done(std::sync::Arc<FinishedJob>),
     /// Done, with the image in the journal.
@@ -43,15 +34,7 @@ pub(super) fn live_answer(sched: &mut Scheduler, job: JobId, from: usize) -> Liv
     if let Some(film) = sched.film_mut(job) {
         // The error map is the running estimate's, brought up to date.
         film.running_estimate();
-        let b = film.geometry().cropped_pixel_bounds;
-        let mut cursor = LiveCursor::at(from);
-        let pieces = cursor.take(film, usize::MAX, true);
-        return LiveAnswer::Running {
-            width: b.width() as u32,
-            height: b.height() as u32,
-            next: cursor.position(),
-            pieces,
-        };
+        return LiveAnswer::Running(crate::web::live::running(film, from));
     }
     match sched.snapshot(job) {
         None => LiveAnswer::NoJob,
@@ -76,11 +59,16 @@ pub(super) fn send_live(sched: &Scheduler, out: &mut GrpcOutbox) {
                 return true;
             }
             // tev is shown the error map of the finished image only.
-            let pieces = cursor.take(film, PIXELS_PER_EVENT, false);
-            if pieces.is_empty() {
+            let regions = cursor.take(film, PIXELS_PER_EVENT);
+            if regions.is_empty() {
                 return true;
             }
-            let preview = encode_preview(b.width() as u32, b.height() as u32, &pieces);
+            let regions = regions
+                .into_iter()
+                .map(|r| preview_region(r, film.region_sums(shift(r, b.min.x, b.min.y))))
+                .collect();
+            let (width, height) = (b.width() as u32, b.height() as u32);
+            let preview = v1::JobPreview { width, height, scale: film.geometry().scale, regions };
             let ev = v1::JobEvent { kind: Some(job_event::Kind::Preview(preview)) };
             !matches!(tx.try_send(Ok(ev)), Err(mpsc::error::TrySendError::Closed(_)))
         });

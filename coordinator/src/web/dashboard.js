@@ -45,6 +45,30 @@ document.addEventListener("click", (ev) => {
   post(b.dataset.action, b.dataset.body);
 });
 
+// Linear [0, 1] to an 8-bit sRGB code value, by a table of 4096 steps.
+const SRGB = new Uint8Array(4097);
+for (let i = 0; i <= 4096; i++) {
+  const v = i / 4096;
+  const s = v <= 0.0031308 ? 12.92 * v : 1.055 * Math.pow(v, 1 / 2.4) - 0.055;
+  SRGB[i] = Math.floor(s * 255 + 0.5);
+}
+function srgb8(v) {
+  if (!(v > 0)) return 0;
+  return SRGB[Math.round(Math.min(v, 1) * 4096)];
+}
+
+// A relMSE estimate as a colour: log scale from 1e-5 (black) through
+// purple, orange and yellow to 1 and above (white).
+const HEAT = [[0, 0, 0], [0.34, 0.06, 0.43], [0.87, 0.32, 0.23], [0.99, 0.8, 0.15], [1, 1, 1]];
+function heatColour(e) {
+  if (!(e > 0) || !isFinite(e)) return [0, 0, 0, 255];
+  const t = Math.min(Math.max((Math.log10(e) + 5) / 5, 0), 1) * (HEAT.length - 1);
+  const i = Math.min(Math.floor(t), HEAT.length - 2);
+  const k = t - i;
+  const c = (j) => Math.round((HEAT[i][j] * (1 - k) + HEAT[i + 1][j] * k) * 255);
+  return [c(0), c(1), c(2), 255];
+}
+
 // A job page's pictures: poll the pieces changed since the last look.
 function startLive(box) {
   const image = document.getElementById("image");
@@ -59,26 +83,50 @@ function startLive(box) {
     } catch (e) { /* try again */ }
     if (again) setTimeout(look, 1000);
   }
-  // Returns whether to keep looking.
+  // Returns whether to keep looking. The answer's layout is documented in
+  // the coordinator's web/live.rs: pieces of the film's sums, which the
+  // page resolves and tone-maps itself.
   function draw(d) {
     const u = (i) => d.getUint32(i, true);
-    const [w, h, next, state, n] = [u(0), u(4), u(8), u(12), u(16)];
+    const f = (i) => d.getFloat32(i, true);
+    const [w, h, next, state, scale, n] = [u(0), u(4), u(8), u(12), f(16), u(20)];
     if (state === 2) return false;
     if (w > 0 && (image.width !== w || image.height !== h)) {
       for (const c of [image, error]) { c.width = w; c.height = h; }
     }
-    let at = 20;
+    let at = 24;
     for (let k = 0; k < n; k++) {
       const [x, y, pw, ph, hasError] = [u(at), u(at + 4), u(at + 8), u(at + 12), u(at + 16)];
       at += 20;
-      const size = pw * ph * 4;
-      const put = (canvas) => {
-        const px = new Uint8ClampedArray(d.buffer, d.byteOffset + at, size);
-        canvas.getContext("2d").putImageData(new ImageData(px, pw, ph), x, y);
-        at += size;
-      };
-      put(image);
-      if (hasError) put(error);
+      const count = pw * ph;
+      const px = new Uint8ClampedArray(count * 4);
+      if (state === 1) {
+        // The finished image: its pixel values.
+        for (let i = 0; i < count; i++, at += 12) {
+          for (let c = 0; c < 3; c++) px[4 * i + c] = srgb8(f(at + 4 * c));
+          px[4 * i + 3] = 255;
+        }
+      } else {
+        // The film's sums as they stand.
+        for (let i = 0; i < count; i++, at += 16) {
+          const wt = f(at + 12);
+          const inv = wt !== 0 ? 1 / wt : 1;
+          for (let c = 0; c < 3; c++) {
+            let v = f(at + 4 * c);
+            if (wt !== 0) v = Math.max(v * inv, 0);
+            px[4 * i + c] = srgb8(v * scale);
+          }
+          px[4 * i + 3] = 255;
+        }
+      }
+      image.getContext("2d").putImageData(new ImageData(px, pw, ph), x, y);
+      if (hasError) {
+        const heat = new Uint8ClampedArray(count * 4);
+        for (let i = 0; i < count; i++, at += 4) {
+          heat.set(heatColour(f(at)), 4 * i);
+        }
+        error.getContext("2d").putImageData(new ImageData(heat, pw, ph), x, y);
+      }
     }
     if (n > 0) image.dataset.updates = String(++updates);
     from = next;

@@ -1,25 +1,35 @@
 //! `/api/jobs/ID/live?from=N`: what a job page draws. The page keeps a
-//! cursor into the film's changes (see [`crate::live`]) and is sent, as
-//! 8-bit RGBA ready for a canvas, the pieces changed since it, and the
-//! error map's pieces beside them. All numbers little-endian:
+//! cursor into the film's changes (see [`crate::live`]) and is sent the
+//! pieces changed since it as the film's sums, unresolved, with the error
+//! map's pieces beside them: the coordinator only copies, and the page
+//! divides, tone-maps and colours (`dashboard.js`). All numbers
+//! little-endian, every field 4 bytes:
 //!
 //! ```text
 //! u32 width, u32 height, u32 next cursor, u32 state (0 running, 1 done, 2 ended without an image),
-//! u32 piece count, then per piece:
+//! f32 scale, u32 piece count, then per piece:
 //!   u32 x0, u32 y0, u32 w, u32 h, u32 has error map (0 or 1),
-//!   w·h·4 bytes of image, then w·h·4 bytes of error map if it has one
+//!   running: w·h × (f32 Σw·r, Σw·g, Σw·b, Σw); done: w·h × (f32 r, g, b),
+//!   then w·h × f32 relMSE if it has an error map
 //! ```
+//!
+//! While running, a pixel shows max(Σw·c / Σw, 0) · scale (Σw·c · scale
+//! where Σw is 0). A finished image is one piece of the written pixel
+//! values, copied as the journal holds them.
 
 use super::{may_touch, Caller, Web};
+use crate::live::{shift, LiveCursor};
+use crate::merge::Film;
 use crate::server::events::{Event, LiveAnswer};
 use crate::state::Command;
 use axum::body::Body;
 use axum::extract::{Path, Query, State};
 use axum::http::{header, HeaderValue, StatusCode};
 use axum::response::{IntoResponse, Response};
+use farm_common::geometry::{Bounds2i, Point2i};
 use farm_common::ids::JobId;
-use farm_common::image::{ImagePiece, RgbImage};
-use farm_proto::convert::ImageAssembler;
+use farm_common::image::RgbImage;
+use farm_proto::v1;
 use prost::Message;
 
 #[derive(serde::Deserialize)]
@@ -28,88 +38,107 @@ pub(super) struct Since {
     from: usize,
 }
 
-/// Entries of the sRGB table: linear [0, 1] in steps of 1/4096.
-const SRGB_STEPS: usize = 4096;
-
-/// Linear to an 8-bit sRGB code value (clamped to [0, 1]), by table: the
-/// pages draw every pixel that changes, and `powf` per channel was most of
-/// what drawing cost.
-pub fn srgb8(v: f32) -> u8 {
-    static TABLE: std::sync::OnceLock<Vec<u8>> = std::sync::OnceLock::new();
-    let t = TABLE.get_or_init(|| {
-        (0..=SRGB_STEPS)
-            .map(|i| {
-                let v = i as f32 / SRGB_STEPS as f32;
-                let s =
-                    if v <= 0.003_130_8 { 12.92 * v } else { 1.055 * v.powf(1.0 / 2.4) - 0.055 };
-                (s * 255.0 + 0.5) as u8
-            })
-            .collect()
-    });
-    let v = if v.is_finite() { v.clamp(0.0, 1.0) } else { 0.0 };
-    t[(v * SRGB_STEPS as f32 + 0.5) as usize]
-}
-
-/// Colours of the heat map, from t = 0 to 1.
-const HEAT_STEPS: usize = 256;
-
-/// A relMSE estimate as a colour: log scale from 1e-5 (black) through
-/// purple, orange and yellow to 1 and above (white). The logarithm is
-/// read off the float's exponent and mantissa (within 0.03 of a decade,
-/// invisible in a colour map) and the colour off a table.
-pub fn heat(e: f32) -> [u8; 3] {
-    static TABLE: std::sync::OnceLock<Vec<[u8; 3]>> = std::sync::OnceLock::new();
-    let t = TABLE.get_or_init(|| {
-        const STOPS: [[f32; 3]; 5] =
-            [[0.0, 0.0, 0.0], [0.34, 0.06, 0.43], [0.87, 0.32, 0.23], [0.99, 0.8, 0.15], [1.0; 3]];
-        (0..=HEAT_STEPS)
-            .map(|k| {
-                let x = k as f32 / HEAT_STEPS as f32 * (STOPS.len() - 1) as f32;
-                let i = (x as usize).min(STOPS.len() - 2);
-                let f = x - i as f32;
-                let c = |j: usize| {
-                    ((STOPS[i][j] * (1.0 - f) + STOPS[i + 1][j] * f) * 255.0 + 0.5) as u8
-                };
-                [c(0), c(1), c(2)]
-            })
-            .collect()
-    });
-    if !(e > 0.0 && e.is_finite()) {
-        return t[0];
-    }
-    let bits = e.to_bits();
-    let log2 = ((bits >> 23) as f32 - 127.0) + (bits & 0x7f_ffff) as f32 / (1 << 23) as f32;
-    let x = ((log2 * std::f32::consts::LOG10_2 + 5.0) / 5.0).clamp(0.0, 1.0);
-    t[(x * HEAT_STEPS as f32 + 0.5) as usize]
-}
+/// The answer's state field.
+const RUNNING: u32 = 0;
+const DONE: u32 = 1;
+const ENDED: u32 = 2;
 
 fn put(out: &mut Vec<u8>, v: u32) {
     out.extend_from_slice(&v.to_le_bytes());
 }
 
-/// The binary answer (see the module documentation).
-pub fn encode(width: u32, height: u32, next: usize, state: u32, pieces: &[ImagePiece]) -> Vec<u8> {
+fn header(width: u32, height: u32, next: usize, state: u32, scale: f32, pieces: usize) -> Vec<u8> {
     let mut out = Vec::new();
-    for v in [width, height, next as u32, state, pieces.len() as u32] {
+    for v in [width, height, next as u32, state, scale.to_bits(), pieces as u32] {
         put(&mut out, v);
     }
-    for p in pieces {
-        let b = p.bounds;
-        for v in [b.min.x, b.min.y, b.width(), b.height()] {
-            put(&mut out, v as u32);
-        }
-        put(&mut out, u32::from(p.error.is_some()));
-        for px in &p.image.pixels {
-            out.extend_from_slice(&[srgb8(px[0]), srgb8(px[1]), srgb8(px[2]), 255]);
-        }
-        if let Some(e) = &p.error {
-            for v in e {
-                let [r, g, b] = heat(*v);
-                out.extend_from_slice(&[r, g, b, 255]);
-            }
+    out
+}
+
+/// Appends a piece's header; returns where its error-map flag is.
+fn piece_header(out: &mut Vec<u8>, b: Bounds2i, has_error: bool) -> usize {
+    for v in [b.min.x, b.min.y, b.width(), b.height()] {
+        put(out, v as u32);
+    }
+    put(out, u32::from(has_error));
+    out.len() - 4
+}
+
+/// A running job's answer: the pieces changed since cursor `from`, as
+/// they stand, with the running estimate's error map (as last brought up
+/// to date).
+pub fn running(film: &Film, from: usize) -> Vec<u8> {
+    let g = film.geometry();
+    let b = g.cropped_pixel_bounds;
+    let mut cursor = LiveCursor::at(from);
+    let regions = cursor.take(film, usize::MAX);
+    let (w, h) = (b.width() as u32, b.height() as u32);
+    let mut out = header(w, h, cursor.position(), RUNNING, g.scale, regions.len());
+    out.reserve(regions.iter().map(|r| 20 + r.area() * 20).sum());
+    for r in regions {
+        let flag = piece_header(&mut out, r, false);
+        out.extend_from_slice(&film.region_sums(shift(r, b.min.x, b.min.y)));
+        if film.write_error_map(r, &mut out) {
+            out[flag] = 1;
         }
     }
     out
+}
+
+/// A finished image's answer: one piece of the whole image.
+pub fn finished(image: &RgbImage, error: Option<&[f32]>) -> Vec<u8> {
+    let (w, h) = (image.width as u32, image.height as u32);
+    let mut out = header(w, h, 0, DONE, 1.0, 1);
+    let b = Bounds2i::new(Point2i::new(0, 0), Point2i::new(w as i32, h as i32));
+    let error = error.filter(|e| e.len() == image.pixels.len());
+    piece_header(&mut out, b, error.is_some());
+    let mut body: Vec<[u8; 4]> = Vec::with_capacity(image.pixels.len() * 4);
+    body.extend(image.pixels.iter().flatten().map(|v| v.to_le_bytes()));
+    body.extend(error.into_iter().flatten().map(|v| v.to_le_bytes()));
+    out.extend_from_slice(body.as_flattened());
+    out
+}
+
+/// A finished image's answer from the image events the journal stores,
+/// their bytes copied as they are: the rows must follow on from each
+/// other and fill the image, with an error map for all of them or none.
+pub fn finished_from_events(events: &[Vec<u8>]) -> Option<Vec<u8>> {
+    let chunks: Vec<v1::JobImage> = events
+        .iter()
+        .filter_map(|bytes| match v1::JobEvent::decode(bytes.as_slice()).ok()?.kind {
+            Some(v1::job_event::Kind::Image(img)) => Some(img),
+            _ => None,
+        })
+        .collect();
+    let first = chunks.first()?;
+    let (w, h) = (first.width as usize, first.height as usize);
+    let with_error = !first.error_map.is_empty();
+    let mut row = 0usize;
+    for c in &chunks {
+        let rows = c.rgb.len().checked_div(w * 12)?;
+        let fits = (c.width as usize, c.height as usize) == (w, h)
+            && c.first_row as usize == row
+            && c.rgb.len() == rows * w * 12
+            && c.error_map.len() == if with_error { rows * w * 4 } else { 0 };
+        if !fits {
+            return None;
+        }
+        row += rows;
+    }
+    if row != h {
+        return None;
+    }
+    let mut out = header(w as u32, h as u32, 0, DONE, 1.0, 1);
+    let b = Bounds2i::new(Point2i::new(0, 0), Point2i::new(w as i32, h as i32));
+    piece_header(&mut out, b, with_error);
+    out.reserve(w * h * if with_error { 16 } else { 12 });
+    for c in &chunks {
+        out.extend_from_slice(&c.rgb);
+    }
+    for c in &chunks {
+        out.extend_from_slice(&c.error_map);
+    }
+    Some(out)
 }
 
 fn binary(bytes: Vec<u8>) -> Response {
@@ -120,21 +149,12 @@ fn binary(bytes: Vec<u8>) -> Response {
     r
 }
 
-/// A finished image read back from the journal.
-async fn stored(web: &Web, job: JobId) -> Option<(RgbImage, Option<Vec<f32>>)> {
+/// A finished job's answer from the image the journal stores.
+async fn stored(web: &Web, job: JobId) -> Option<Vec<u8>> {
     let journal = web.journal.as_ref()?;
     let (reply, rx) = tokio::sync::oneshot::channel();
     journal.send(Command::ReadImage { job: job.0, reply });
-    let mut asm = ImageAssembler::default();
-    for bytes in rx.await.ok()? {
-        let ev = farm_proto::v1::JobEvent::decode(bytes.as_slice()).ok()?;
-        if let Some(farm_proto::v1::job_event::Kind::Image(img)) = ev.kind {
-            if let Some(done) = asm.add(&img).ok()? {
-                return Some((done.image, done.error.map(|e| e.0)));
-            }
-        }
-    }
-    None
+    finished_from_events(&rx.await.ok()?)
 }
 
 pub(super) async fn live(
@@ -151,20 +171,17 @@ pub(super) async fn live(
     else {
         return super::shutting_down();
     };
-    let done = |image: &RgbImage, error: Option<&[f32]>| {
-        let (w, h) = (image.width as u32, image.height as u32);
-        binary(encode(w, h, 0, 1, &crate::live::whole_pieces(image, error)))
-    };
+    let ended = || binary(header(0, 0, 0, ENDED, 1.0, 0));
     match answer {
-        LiveAnswer::Running { width, height, next, pieces } => {
-            binary(encode(width, height, next, 0, &pieces))
+        LiveAnswer::Running(bytes) => binary(bytes),
+        LiveAnswer::Done(f) => {
+            binary(finished(&f.image, f.error.as_ref().map(|e| e.per_pixel.as_slice())))
         }
-        LiveAnswer::Done(f) => done(&f.image, f.error.as_ref().map(|e| e.per_pixel.as_slice())),
         LiveAnswer::Stored => match stored(&web, job).await {
-            Some((image, error)) => done(&image, error.as_deref()),
-            None => binary(encode(0, 0, 0, 2, &[])),
+            Some(bytes) => binary(bytes),
+            None => ended(),
         },
-        LiveAnswer::Ended => binary(encode(0, 0, 0, 2, &[])),
+        LiveAnswer::Ended => ended(),
         LiveAnswer::NoJob => (StatusCode::NOT_FOUND, "no such job of yours").into_response(),
     }
 }
@@ -172,37 +189,81 @@ pub(super) async fn live(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use farm_common::geometry::{Bounds2i, Point2i};
+    use farm_common::film::{FilmGeometry, FilmTile};
+    use farm_common::geometry::Vec2;
+    use farm_common::ids::TileId;
 
-    #[test]
-    fn tone_and_heat_maps_are_monotone_and_bounded() {
-        assert_eq!(srgb8(0.0), 0);
-        assert_eq!(srgb8(1.0), 255);
-        assert_eq!(srgb8(7.0), 255);
-        assert_eq!(srgb8(f32::NAN), 0);
-        assert_eq!(srgb8(0.5), 188, "sRGB's curve");
-        let lum = |c: [u8; 3]| c.iter().map(|&v| u32::from(v)).sum::<u32>();
-        let mut last = 0;
-        for k in -6..=1 {
-            let l = lum(heat(10f32.powi(k)));
-            assert!(l >= last, "heat not monotone at 1e{k}");
-            last = l;
-        }
-        assert_eq!(heat(0.0), [0, 0, 0]);
-        assert_eq!(heat(10.0), [255, 255, 255]);
+    fn words(bytes: &[u8]) -> Vec<u32> {
+        bytes.chunks_exact(4).map(|c| u32::from_le_bytes(c.try_into().unwrap())).collect()
     }
 
     #[test]
-    fn the_binary_answer_has_the_documented_layout() {
-        let b = Bounds2i::new(Point2i::new(2, 3), Point2i::new(4, 4));
-        let image = RgbImage { width: 2, height: 1, pixels: vec![[1.0, 0.0, 0.0], [0.0; 3]] };
-        let p = ImagePiece { bounds: b, image, error: Some(vec![1.0, 0.0]) };
-        let bytes = encode(10, 5, 7, 0, &[p]);
-        let u = |i: usize| u32::from_le_bytes(bytes[i * 4..i * 4 + 4].try_into().unwrap());
-        assert_eq!([u(0), u(1), u(2), u(3), u(4)], [10, 5, 7, 0, 1]);
-        assert_eq!([u(5), u(6), u(7), u(8), u(9)], [2, 3, 2, 1, 1]);
-        assert_eq!(&bytes[40..48], &[255, 0, 0, 255, 0, 0, 0, 255]);
-        assert_eq!(&bytes[48..52], &[255, 255, 255, 255]);
-        assert_eq!(bytes.len(), 40 + 8 + 8);
+    fn a_running_answer_has_the_documented_layout() {
+        let b = Bounds2i::new(Point2i::new(0, 0), Point2i::new(40, 20));
+        let g = FilmGeometry::new(b.max, b, Vec2::splat(0.5), 2.0, f32::INFINITY, "x".into(), 35.0);
+        let mut film = Film::new(g.clone());
+        let tb = g.tile_pixel_bounds(TileId(0));
+        let mut t = FilmTile::new(tb);
+        for p in t.pixel_bounds.iter() {
+            t.add(p, farm_common::Spectrum::new(3.0, 0.0, 1.0), 0.5, false);
+            t.add(p, farm_common::Spectrum::new(1.0, 0.0, 1.0), 0.5, true);
+        }
+        film.accept(TileId(0), t).unwrap();
+        film.running_estimate();
+        let u = words(&running(&film, 0));
+        assert_eq!(&u[..6], &[40, 20, 1, RUNNING, 2.0f32.to_bits(), 1]);
+        let (w, h) = (tb.width() as u32, tb.height() as u32);
+        assert_eq!(&u[6..11], &[0, 0, w, h, 1], "tile 0's pixels, with an error map");
+        let f = |i: usize| f32::from_bits(u[i]);
+        assert_eq!([f(11), f(12), f(13), f(14)], [2.0, 0.0, 1.0, 1.0], "the first pixel's sums");
+        assert_eq!(u.len(), 11 + tb.area() * 5);
+        assert!(f(11 + tb.area() * 4) > 0.0, "an error estimate follows the sums");
+        let again = words(&running(&film, 1));
+        assert_eq!(&again[..6], &[40, 20, 1, RUNNING, 2.0f32.to_bits(), 0], "nothing new");
+    }
+
+    #[test]
+    fn a_finished_answer_is_one_piece_of_pixel_values() {
+        let image = RgbImage { width: 2, height: 1, pixels: vec![[1.0, 0.0, 0.5], [0.0; 3]] };
+        let u = words(&finished(&image, Some(&[0.25, 0.0])));
+        assert_eq!(&u[..11], &[2, 1, 0, DONE, 1f32.to_bits(), 1, 0, 0, 2, 1, 1]);
+        let f: Vec<f32> = u[11..].iter().map(|&v| f32::from_bits(v)).collect();
+        assert_eq!(f, [1.0, 0.0, 0.5, 0.0, 0.0, 0.0, 0.25, 0.0]);
+    }
+
+    #[test]
+    fn a_stored_image_is_sent_as_the_journal_holds_it_if_it_fits() {
+        let image = RgbImage {
+            width: 3,
+            height: 4,
+            pixels: (0..12).map(|i| [i as f32, 0.5, 2.0]).collect(),
+        };
+        let error: Vec<f32> = (0..12).map(|i| i as f32 * 0.01).collect();
+        let direct = finished(&image, Some(&error));
+        // Two chunks of rows, as the journal stores them.
+        let chunk = |rows: std::ops::Range<usize>, with_error: bool| {
+            let px = &image.pixels[rows.start * 3..rows.end * 3];
+            let e = &error[rows.start * 3..rows.end * 3];
+            let img = v1::JobImage {
+                width: 3,
+                height: 4,
+                first_row: rows.start as u32,
+                rgb: px.iter().flatten().flat_map(|v| v.to_le_bytes()).collect(),
+                error_map: if with_error {
+                    e.iter().flat_map(|v| v.to_le_bytes()).collect()
+                } else {
+                    Vec::new()
+                },
+                ..Default::default()
+            };
+            v1::JobEvent { kind: Some(v1::job_event::Kind::Image(img)) }.encode_to_vec()
+        };
+        let events = [chunk(0..1, true), chunk(1..4, true)];
+        assert_eq!(finished_from_events(&events).as_deref(), Some(direct.as_slice()));
+        // Rows missing, out of order, or an error map for some rows only.
+        assert!(finished_from_events(&events[..1]).is_none());
+        assert!(finished_from_events(&[chunk(1..4, true), chunk(0..1, true)]).is_none());
+        assert!(finished_from_events(&[chunk(0..1, true), chunk(1..4, false)]).is_none());
+        assert!(finished_from_events(&[]).is_none());
     }
 }

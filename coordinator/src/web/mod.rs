@@ -22,7 +22,7 @@
 //! also carry the `x-farm-csrf` header the script sends, which no other
 //! site's form can.
 
-mod live;
+pub(crate) mod live;
 mod page;
 
 use crate::metrics::Metrics;

@@ -3,6 +3,7 @@
 
 use crate::error::{Error, Result};
 use crate::v1;
+use farm_common::film::resolve;
 use farm_common::geometry::{Bounds2i, Point2i};
 use farm_common::image::{ImagePiece, RgbImage};
 
@@ -11,29 +12,28 @@ use farm_common::image::{ImagePiece, RgbImage};
 /// in pieces.
 pub const PREVIEW_PIECE: i32 = 1024;
 
-/// The preview event of `pieces` of a `width`×`height` image.
-pub fn encode_preview(width: u32, height: u32, pieces: &[ImagePiece]) -> v1::JobPreview {
-    let regions = pieces
-        .iter()
-        .map(|p| v1::PreviewRegion {
-            x0: p.bounds.min.x,
-            y0: p.bounds.min.y,
-            x1: p.bounds.max.x,
-            y1: p.bounds.max.y,
-            rgb: p.image.pixels.iter().flatten().flat_map(|v| v.to_le_bytes()).collect(),
-            error_map: p.error.iter().flatten().flat_map(|v| v.to_le_bytes()).collect(),
-        })
-        .collect();
-    v1::JobPreview { width, height, regions }
+/// A preview region over `bounds` (image coordinates) carrying `sums` as
+/// the coordinator's film writes them: per pixel, row by row, Σw·r, Σw·g,
+/// Σw·b and Σw as little-endian f32.
+pub fn preview_region(bounds: Bounds2i, sums: Vec<u8>) -> v1::PreviewRegion {
+    v1::PreviewRegion {
+        x0: bounds.min.x,
+        y0: bounds.min.y,
+        x1: bounds.max.x,
+        y1: bounds.max.y,
+        sums,
+        error_map: Vec::new(),
+    }
 }
 
 fn floats(bytes: &[u8]) -> impl Iterator<Item = f32> + '_ {
     bytes.chunks_exact(4).map(|b| f32::from_le_bytes([b[0], b[1], b[2], b[3]]))
 }
 
-/// The pieces of a preview of a `width`×`height` image: each must lie in
-/// the image, be at most [`PREVIEW_PIECE`] on a side and carry exactly its
-/// pixels (and an error map of its size or none).
+/// The pieces of a preview of a `width`×`height` image, resolved to pixel
+/// values with the preview's scale: each must lie in the image, be at
+/// most [`PREVIEW_PIECE`] on a side and carry exactly its pixels (and an
+/// error map of its size or none).
 pub fn decode_preview(p: &v1::JobPreview, width: u32, height: u32) -> Result<Vec<ImagePiece>> {
     p.regions
         .iter()
@@ -45,6 +45,7 @@ pub fn decode_preview(p: &v1::JobPreview, width: u32, height: u32) -> Result<Vec
             let b = Bounds2i::new(Point2i::new(r.x0, r.y0), Point2i::new(r.x1, r.y1));
             let inside = p.width == width
                 && p.height == height
+                && p.scale.is_finite()
                 && r.x0 >= 0
                 && r.y0 >= 0
                 && r.x0 < r.x1
@@ -56,13 +57,14 @@ pub fn decode_preview(p: &v1::JobPreview, width: u32, height: u32) -> Result<Vec
                 return Err(bad());
             }
             let n = b.area();
-            if r.rgb.len() != n * 12 || !(r.error_map.is_empty() || r.error_map.len() == n * 4) {
+            if r.sums.len() != n * 16 || !(r.error_map.is_empty() || r.error_map.len() == n * 4) {
                 return Err(bad());
             }
-            let v: Vec<f32> = floats(&r.rgb).collect();
-            let pixels = v.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect();
+            let v: Vec<f32> = floats(&r.sums).collect();
+            let pixels = v.chunks_exact(4).map(|s| resolve([s[0], s[1], s[2]], s[3], p.scale));
             let error = (!r.error_map.is_empty()).then(|| floats(&r.error_map).collect());
-            let image = RgbImage { width: b.width() as usize, height: b.height() as usize, pixels };
+            let (w, h) = (b.width() as usize, b.height() as usize);
+            let image = RgbImage { width: w, height: h, pixels: pixels.collect() };
             Ok(ImagePiece { bounds: b, image, error })
         })
         .collect()
@@ -72,31 +74,44 @@ pub fn decode_preview(p: &v1::JobPreview, width: u32, height: u32) -> Result<Vec
 mod tests {
     use super::*;
 
-    fn piece(x0: i32, y0: i32, x1: i32, y1: i32) -> ImagePiece {
+    /// A region whose pixel i sums to (2i, 1, -3) over weight 2, with an error map.
+    fn region(x0: i32, y0: i32, x1: i32, y1: i32) -> v1::PreviewRegion {
         let b = Bounds2i::new(Point2i::new(x0, y0), Point2i::new(x1, y1));
-        let pixels = (0..b.area()).map(|i| [i as f32, 0.5, -1.0]).collect();
-        let image = RgbImage { width: b.width() as usize, height: b.height() as usize, pixels };
-        ImagePiece { bounds: b, image, error: Some(vec![0.25; b.area()]) }
+        let sums = (0..b.area())
+            .flat_map(|i| [2.0 * i as f32, 1.0, -3.0, 2.0])
+            .flat_map(f32::to_le_bytes)
+            .collect();
+        let mut r = preview_region(b, sums);
+        r.error_map = vec![0; b.area() * 4];
+        r
     }
 
     #[test]
-    fn pieces_round_trip_and_lies_are_refused() {
-        let pieces = vec![piece(0, 0, 128, 128), piece(128, 0, 200, 50)];
-        let msg = encode_preview(200, 128, &pieces);
-        assert_eq!(decode_preview(&msg, 200, 128).unwrap(), pieces);
-        // Another image's size, a piece outside, bytes short, an odd error map.
+    fn pieces_resolve_with_the_scale_and_lies_are_refused() {
+        let regions = vec![region(0, 0, 128, 128), region(128, 0, 200, 50)];
+        let msg = v1::JobPreview { width: 200, height: 128, scale: 0.5, regions };
+        let pieces = decode_preview(&msg, 200, 128).unwrap();
+        assert_eq!(pieces[1].bounds, Bounds2i::new(Point2i::new(128, 0), Point2i::new(200, 50)));
+        // (2i, 1, -3) / 2, clamped at zero, times 0.5.
+        assert_eq!(pieces[1].image.pixels[3], [1.5, 0.25, 0.0]);
+        assert_eq!(pieces[0].error.as_ref().map(Vec::len), Some(128 * 128));
+        // Another image's size, a piece outside, bytes short, an odd error
+        // map, an empty piece, a scale that is not a number.
         assert!(decode_preview(&msg, 201, 128).is_err());
         let mut m = msg.clone();
         m.regions[1].x1 = 201;
         assert!(decode_preview(&m, 200, 128).is_err());
         let mut m = msg.clone();
-        m.regions[0].rgb.pop();
+        m.regions[0].sums.pop();
         assert!(decode_preview(&m, 200, 128).is_err());
         let mut m = msg.clone();
         m.regions[0].error_map.truncate(4);
         assert!(decode_preview(&m, 200, 128).is_err());
-        let mut m = msg;
+        let mut m = msg.clone();
         m.regions[0].x1 = m.regions[0].x0;
+        assert!(decode_preview(&m, 200, 128).is_err());
+        let mut m = msg;
+        m.scale = f32::NAN;
         assert!(decode_preview(&m, 200, 128).is_err());
     }
 }
