@@ -212,7 +212,10 @@ pub async fn run(mut rx: mpsc::UnboundedReceiver<Event>, config: ServerConfig, s
                     let _ = reply.send(false);
                 }
             },
-            Event::LiveTick => send_live(&sched, &mut out),
+            Event::LiveTick => {
+                send_live(&sched, &mut out);
+                out.recent.expire(now);
+            }
             Event::Views { reply } => {
                 // Each running estimate is brought up to date over the
                 // tiles merged since the last look, not recomputed.
@@ -226,7 +229,7 @@ pub async fn run(mut rx: mpsc::UnboundedReceiver<Event>, config: ServerConfig, s
                 let _ = reply.send(views);
             }
             Event::Live { job, from, reply } => {
-                let _ = reply.send(live_answer(&mut sched, job, from));
+                let _ = reply.send(live_answer(&mut sched, &mut out.recent, job, from, now));
             }
             Event::Priority { job, priority, reply } => {
                 let _ = reply.send(sched.set_priority(job, priority, &mut out));

@@ -7,6 +7,9 @@ use crate::scheduler::{FinishedJob, JobUpdate, Scheduler, Snapshot};
 use farm_common::ids::JobId;
 use farm_proto::convert::preview_region;
 use farm_proto::v1::{self, job_event};
+use std::collections::{HashMap, VecDeque};
+use std::sync::Arc;
+use std::time::{Duration, Instant};
 use tokio::sync::mpsc;
 
 /// Pixels in one preview event (16 bytes each): about 4 MiB, well under
@@ -20,7 +23,7 @@ pub enum LiveAnswer {
     /// the pieces changed since its cursor.
     Running(Vec<u8>),
     /// Done, with the image in memory.
-    Done(std::sync::Arc<FinishedJob>),
+    Done(Arc<FinishedJob>),
     /// Done, with the image in the journal.
     Stored,
     /// Failed or cancelled: there is no image.
@@ -29,16 +32,80 @@ pub enum LiveAnswer {
     NoJob,
 }
 
+/// How long after a page last looked at a running job its finished image
+/// is kept in memory for it.
+const PAGE_LOOKS_EVERY: Duration = Duration::from_secs(5);
+/// How long a finished image is kept for the pages that were open.
+const KEEP_FOR: Duration = Duration::from_secs(30);
+/// At most this many bytes of finished images are kept.
+const KEEP_BYTES: usize = 128 << 20;
+
+/// Finished images kept in memory for a short while for the dashboard
+/// pages that were open when their job ended: each such page asks once for
+/// the finished image, and would otherwise have it read back from the
+/// journal. Only jobs a page looked at lately are kept, for seconds, and
+/// within a byte budget.
+#[derive(Default)]
+pub(super) struct RecentImages {
+    /// When a page last looked at each running job.
+    looked: HashMap<JobId, Instant>,
+    kept: VecDeque<(JobId, Instant, Arc<FinishedJob>)>,
+}
+
+fn size(f: &FinishedJob) -> usize {
+    f.image.pixels.len() * 12 + f.error.as_ref().map_or(0, |e| e.per_pixel.len() * 4)
+}
+
+impl RecentImages {
+    /// A page looked at running `job`.
+    pub(super) fn looked(&mut self, job: JobId, now: Instant) {
+        self.looked.insert(job, now);
+    }
+
+    /// `job` finished: keep its image if a page looked at it lately.
+    pub(super) fn finished(&mut self, job: JobId, f: &Arc<FinishedJob>, now: Instant) {
+        let Some(at) = self.looked.remove(&job) else { return };
+        if now.duration_since(at) > PAGE_LOOKS_EVERY || size(f) > KEEP_BYTES {
+            return;
+        }
+        self.kept.push_back((job, now, f.clone()));
+        while self.kept.iter().map(|(_, _, f)| size(f)).sum::<usize>() > KEEP_BYTES {
+            self.kept.pop_front();
+        }
+    }
+
+    /// A kept image of `job`.
+    fn get(&self, job: JobId) -> Option<Arc<FinishedJob>> {
+        self.kept.iter().find(|(j, _, _)| *j == job).map(|(_, _, f)| f.clone())
+    }
+
+    /// Forgets what is past its time, and pages of jobs that ended otherwise.
+    pub(super) fn expire(&mut self, now: Instant) {
+        self.kept.retain(|(_, at, _)| now.duration_since(*at) <= KEEP_FOR);
+        self.looked.retain(|_, at| now.duration_since(*at) <= PAGE_LOOKS_EVERY);
+    }
+}
+
 /// What a dashboard page at cursor `from` is shown of `job`.
-pub(super) fn live_answer(sched: &mut Scheduler, job: JobId, from: usize) -> LiveAnswer {
+pub(super) fn live_answer(
+    sched: &mut Scheduler,
+    recent: &mut RecentImages,
+    job: JobId,
+    from: usize,
+    now: Instant,
+) -> LiveAnswer {
     if let Some(film) = sched.film_mut(job) {
+        recent.looked(job, now);
         // The error map is the running estimate's, brought up to date.
         film.running_estimate();
         return LiveAnswer::Running(crate::web::live::running(film, from));
     }
     match sched.snapshot(job) {
         None => LiveAnswer::NoJob,
-        Some(Snapshot::Stored) => LiveAnswer::Stored,
+        Some(Snapshot::Stored) => match recent.get(job) {
+            Some(f) => LiveAnswer::Done(f),
+            None => LiveAnswer::Stored,
+        },
         Some(Snapshot::Update(JobUpdate::Finished(f))) => LiveAnswer::Done(f),
         Some(Snapshot::Update(_)) => LiveAnswer::Ended,
     }
@@ -74,4 +141,53 @@ pub(super) fn send_live(sched: &Scheduler, out: &mut GrpcOutbox) {
         });
         !list.is_empty()
     });
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use farm_common::image::RgbImage;
+
+    fn finished(pixels: usize) -> Arc<FinishedJob> {
+        Arc::new(FinishedJob {
+            image: RgbImage { width: pixels, height: 1, pixels: vec![[0.5; 3]; pixels] },
+            error: None,
+            spp: 1,
+            render_seconds: 1.0,
+            stats: Default::default(),
+        })
+    }
+
+    #[test]
+    fn finished_images_are_kept_briefly_for_pages_that_were_looking() {
+        let t0 = Instant::now();
+        let mut r = RecentImages::default();
+        // Nobody looked at job 1; a page looked at job 2 just before it ended.
+        r.finished(JobId(1), &finished(4), t0);
+        r.looked(JobId(2), t0);
+        r.finished(JobId(2), &finished(4), t0 + Duration::from_secs(1));
+        assert!(r.get(JobId(1)).is_none(), "no page was open");
+        assert!(r.get(JobId(2)).is_some());
+        // A page that stopped looking long before the end.
+        r.looked(JobId(3), t0);
+        r.finished(JobId(3), &finished(4), t0 + PAGE_LOOKS_EVERY + Duration::from_secs(1));
+        assert!(r.get(JobId(3)).is_none());
+        // Kept for a while only.
+        r.expire(t0 + KEEP_FOR);
+        assert!(r.get(JobId(2)).is_some());
+        r.expire(t0 + KEEP_FOR + Duration::from_secs(2));
+        assert!(r.get(JobId(2)).is_none());
+        // Within the byte budget: the oldest go first, and a huge image is not kept.
+        let big = KEEP_BYTES / 12 / 2;
+        for j in 4..7 {
+            r.looked(JobId(j), t0);
+            r.finished(JobId(j), &finished(big), t0);
+        }
+        assert!(
+            r.get(JobId(4)).is_none() && r.get(JobId(5)).is_some() && r.get(JobId(6)).is_some()
+        );
+        r.looked(JobId(7), t0);
+        r.finished(JobId(7), &finished(KEEP_BYTES / 12 + 1), t0);
+        assert!(r.get(JobId(7)).is_none());
+    }
 }

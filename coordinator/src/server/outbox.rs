@@ -2,6 +2,7 @@
 //! streams and watchers' WatchJob streams, what it asks to keep goes to
 //! the journal, and what happens is counted for `/metrics`.
 
+use super::live::RecentImages;
 use crate::error::Error;
 use crate::live::LiveCursor;
 use crate::metrics::Metrics;
@@ -38,6 +39,8 @@ pub(super) struct GrpcOutbox {
     pub(super) metrics: Arc<Metrics>,
     /// When each tile out was handed out (for the latency histogram).
     pub(super) handed: HashMap<TileAttempt, Instant>,
+    /// Finished images kept a while for the dashboard pages open on them.
+    pub(super) recent: RecentImages,
 }
 
 fn rpc_stats(s: &RayStats) -> Option<v1::RayStats> {
@@ -116,6 +119,9 @@ impl Outbox for GrpcOutbox {
 
     fn notify(&mut self, job: JobId, update: JobUpdate) {
         let final_update = !matches!(update, JobUpdate::Progress { .. });
+        if let JobUpdate::Finished(f) = &update {
+            self.recent.finished(job, f, Instant::now());
+        }
         if let Some(list) = self.watchers.get_mut(&job) {
             let events = job_events(&update);
             list.retain(|tx| events.iter().all(|ev| tx.send(Ok(ev.clone())).is_ok()));
