@@ -21,6 +21,12 @@
 //! render (zeroed before, dumped after, with `callgrind_control`): a count
 //! that does not depend on the machine's load. Give it more samples per
 //! pixel (the coordinator runs some 50× slower under valgrind).
+//!
+//! `FARM_PIN=1` (Linux, `taskset`) gives the coordinator CPU 0 to itself
+//! and runs everything else (workers, `farm submit`, this program's page
+//! and tev) on CPU 1, so the workers' rendering does not share a core with
+//! the coordinator whose CPU time is measured; and, as under callgrind,
+//! each render gets a fresh farm.
 
 use std::io::{BufRead, BufReader, Read, Write};
 use std::net::{TcpListener, TcpStream};
@@ -43,6 +49,21 @@ impl Drop for Procs {
 
 fn farm() -> Command {
     Command::new(env!("CARGO_BIN_EXE_farm"))
+}
+
+/// Whether the coordinator gets a core to itself (`FARM_PIN=1`).
+fn pinned() -> bool {
+    std::env::var("FARM_PIN").is_ok_and(|v| v == "1")
+}
+
+/// `cmd` run on CPU `cpu` only, when pinning.
+fn on_cpu(cpu: u32, cmd: Command) -> Command {
+    if !pinned() {
+        return cmd;
+    }
+    let mut t = Command::new("taskset");
+    t.args(["-c", &cpu.to_string()]).arg(cmd.get_program()).args(cmd.get_args());
+    t
 }
 
 /// CPU time of every thread of `pid`, in seconds.
@@ -123,16 +144,18 @@ fn dashboard(addr: String, stop: Arc<AtomicBool>) -> std::thread::JoinHandle<u64
             }
         };
         browser.get(&format!("/jobs/{job}"));
-        let (mut cursor, mut last_facts) = (0u32, Instant::now());
+        let (mut cursor, mut merged, mut last_facts) = (0u32, 0u32, Instant::now());
         loop {
             // Once the render has ended, one more look fetches the
             // finished image, as the page does.
             let last = stop.load(Ordering::Relaxed);
-            let body = browser.get(&format!("/api/jobs/{job}/live?from={cursor}"));
+            let body = browser.get(&format!("/api/jobs/{job}/live?from={cursor}&merged={merged}"));
             requests += 1;
-            if body.len() >= 16 {
-                cursor = u32::from_le_bytes([body[8], body[9], body[10], body[11]]);
-                if body[12] != 0 {
+            if body.len() >= 28 {
+                let word =
+                    |i: usize| u32::from_le_bytes([body[i], body[i + 1], body[i + 2], body[i + 3]]);
+                (cursor, merged) = (word(8), word(12));
+                if word(16) != 0 {
                     // Done (or ended): the page stops looking, as the script does.
                     break;
                 }
@@ -257,7 +280,7 @@ fn render(
     }
     let cpu0 = cpu_seconds(coord);
     let t0 = Instant::now();
-    let mut cmd = farm();
+    let mut cmd = on_cpu(1, farm());
     cmd.args(["submit", "--quiet", "--coordinator", url, "--spp", &spp.to_string(), "-o"])
         .arg(out)
         .arg(scene);
@@ -288,7 +311,7 @@ impl Farm {
     fn start(dir: &Path, callgrind: bool) -> Farm {
         std::fs::create_dir_all(dir).expect("farm dir");
         let mut procs = Procs(Vec::new());
-        let mut coord = if callgrind {
+        let coord = if callgrind {
             let mut c = Command::new("valgrind");
             let mut out = std::ffi::OsString::from("--callgrind-out-file=");
             out.push(dir.join("cg.out"));
@@ -299,6 +322,7 @@ impl Farm {
         } else {
             farm()
         };
+        let mut coord = on_cpu(0, coord);
         let mut coord = coord
             .args(["coordinator", "--insecure", "--listen", "127.0.0.1:0", "--state-dir"])
             .arg(dir.join("state"))
@@ -318,7 +342,7 @@ impl Farm {
         let at = line.find("http://").expect("an http:// URL");
         let url = line[at..].split_whitespace().next().expect("url").to_string();
         for i in 0..2 {
-            let w = farm()
+            let w = on_cpu(1, farm())
                 .args([
                     "worker",
                     "--coordinator",
@@ -355,6 +379,11 @@ fn main() {
     std::fs::create_dir_all(&dir).expect("temp dir");
     let scene = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../scenes/example.pbrt");
     let callgrind = std::env::var("FARM_CALLGRIND").is_ok_and(|v| v == "1");
+    if pinned() {
+        let me = std::process::id().to_string();
+        let ok = Command::new("taskset").args(["-pc", "1", &me]).stdout(Stdio::null()).status();
+        assert!(ok.is_ok_and(|s| s.success()), "FARM_PIN=1 needs taskset and two CPUs");
+    }
     let out = dir.join("out.exr");
     let mut n = 0;
     let mut start = || {
@@ -364,12 +393,13 @@ fn main() {
         render(&farm.url, farm.pid, None, &scene, &out, 1, false);
         farm
     };
-    // Under callgrind each render gets a farm of its own, so the journal's
-    // history (whose SQLite costs vary with it by more than watching
-    // costs) is the same for both.
-    let shared = (!callgrind).then(&mut start);
+    // Under callgrind or pinned, each render gets a farm of its own, so the
+    // journal's history (whose SQLite costs vary with it by more than
+    // watching costs) is the same for both.
+    let fresh = callgrind || pinned();
+    let shared = (!fresh).then(&mut start);
     let mut run = |watched: bool| {
-        let fresh = callgrind.then(&mut start);
+        let fresh = fresh.then(&mut start);
         let farm = fresh.as_ref().or(shared.as_ref()).expect("a farm");
         render(&farm.url, farm.pid, farm.callgrind.as_ref(), &scene, &out, spp, watched)
     };
@@ -408,6 +438,13 @@ fn main() {
     let (pc, wc) = (m(&plain, |r| r.cpu), m(&watched, |r| r.cpu));
     println!("median {:>10.3}s {:>10.3}s  {:>10.3}s {:>10.3}s", pw, ww, pc, wc);
     println!("watched ÷ plain: wall {:.3}, coordinator CPU {:.3}", ww / pw, wc / pc);
+    let pairs =
+        |f: fn(&Run) -> f64| median(plain.iter().zip(&watched).map(|(p, w)| f(w) / f(p)).collect());
+    println!(
+        "median of the pairs' ratios: wall {:.3}, coordinator CPU {:.3}",
+        pairs(|r| r.wall),
+        pairs(|r| r.cpu)
+    );
     if callgrind {
         let (pi, wi) = (
             m(&plain, |r| r.instructions.unwrap_or(0) as f64),

@@ -1,14 +1,14 @@
 //! The film as it renders, for whoever watches it: `farm submit` and
 //! `farm watch` (over `WatchJob`), the web dashboard and tev.
 //!
-//! A watcher keeps a [`LiveCursor`]. The film lists the pixel bounds of
-//! each tile as it is taken ([`Film::changes_since`]); the cursor queues
-//! the ones it has not seen, and hands them out when the watcher is ready
-//! for more, to be read as they stand ([`Film::region_sums`],
-//! [`Film::preview`]). Only what
-//! changed is sent: over a whole render, a watcher is sent each tile's
-//! pixel bounds once (the film plus the tiles' filter skirts), however
-//! often it looks. What a watcher holds is bounded by the tile count.
+//! A watcher keeps a [`LiveCursor`]. The film lists the pixels whose sums
+//! became complete, in the order they did ([`Film::changes_since`]: a
+//! tile's interior as soon as it arrives, the rest of its pixels when the
+//! merge reaches it); the cursor queues the regions it has not seen, and
+//! hands them out when the watcher is ready for more, to be read as they
+//! stand ([`Film::region_sums`], [`Film::preview`]). Over a whole render a
+//! watcher is sent each pixel once, with its final sums, however often it
+//! looks. What a watcher holds is bounded by the tile count.
 
 use crate::merge::Film;
 use farm_common::geometry::{Bounds2i, Point2i};
@@ -108,25 +108,7 @@ impl LiveCursor {
             pixels = pixels.saturating_add(r.area());
             n += 1;
         }
-        // Neighbouring tiles of a row come out as one strip: their filter
-        // skirts overlap, and one region costs less than several.
-        let mut strips: Vec<Bounds2i> = Vec::with_capacity(n);
-        for r in self.pending.drain(..n).filter(|r| !r.is_empty()) {
-            match strips.last_mut() {
-                Some(s)
-                    if s.min.y == r.min.y
-                        && s.max.y == r.max.y
-                        && r.min.x <= s.max.x
-                        && r.max.x >= s.min.x
-                        && (s.max.x.max(r.max.x) - s.min.x.min(r.min.x)) <= PIECE =>
-                {
-                    s.min.x = s.min.x.min(r.min.x);
-                    s.max.x = s.max.x.max(r.max.x);
-                }
-                _ => strips.push(r),
-            }
-        }
-        strips
+        strips(self.pending.drain(..n))
     }
 
     /// [`LiveCursor::take`], with each region's pixels as they stand, for
@@ -142,6 +124,28 @@ impl LiveCursor {
             })
             .collect()
     }
+}
+
+/// Regions with neighbours in a row joined into strips (up to [`PIECE`]
+/// wide): one region costs less than several.
+pub fn strips(regions: impl IntoIterator<Item = Bounds2i>) -> Vec<Bounds2i> {
+    let mut strips: Vec<Bounds2i> = Vec::new();
+    for r in regions.into_iter().filter(|r| !r.is_empty()) {
+        match strips.last_mut() {
+            Some(s)
+                if s.min.y == r.min.y
+                    && s.max.y == r.max.y
+                    && r.min.x <= s.max.x
+                    && r.max.x >= s.min.x
+                    && (s.max.x.max(r.max.x) - s.min.x.min(r.min.x)) <= PIECE =>
+            {
+                s.min.x = s.min.x.min(r.min.x);
+                s.max.x = s.max.x.max(r.max.x);
+            }
+            _ => strips.push(r),
+        }
+    }
+    strips
 }
 
 /// `r` moved by (dx, dy).
@@ -197,15 +201,15 @@ mod tests {
         film.accept(TileId(last), lit(&g, last, 2.0)).unwrap();
         let r = live.take_pieces(&film, usize::MAX);
         assert_eq!(r.len(), 1);
-        let b = g.tile_pixel_bounds(TileId(last));
-        assert_eq!(r[0].bounds, b, "exactly the tile's pixels (the film starts at 0, 0)");
+        let b = g.tile_interior_pixels(TileId(last));
+        assert_eq!(r[0].bounds, b, "the pixels only it reaches (the film starts at 0, 0)");
         assert!(r[0].image.pixels.iter().all(|p| *p == [2.0; 3]));
         assert!(live.take(&film, usize::MAX).is_empty(), "sent once");
         // Every tile: the regions come out up to a budget a look, and the rest wait.
         for t in 0..last {
             film.accept(TileId(t), lit(&g, t, 1.0)).unwrap();
         }
-        let (t0, t1) = (g.tile_pixel_bounds(TileId(0)), g.tile_pixel_bounds(TileId(1)));
+        let (t0, t1) = (g.tile_final_pixels(TileId(0)), g.tile_final_pixels(TileId(1)));
         let strip = live.take(&film, t0.area() + t1.area());
         assert_eq!(strip.len(), 1, "a row's neighbours come out as one strip");
         assert_eq!(strip[0], Bounds2i::new(t0.min, Point2i::new(t1.max.x, t0.max.y)));

@@ -38,9 +38,11 @@ pub struct Film {
     sums: FilmTile,
     next: u32,
     pending: BTreeMap<u32, FilmTile>,
-    /// The pixel bounds of each tile taken, in the order taken: what a
-    /// watcher needs to redraw since it last looked (each tile is taken
-    /// once, so this never outgrows the tile count).
+    /// The pixels whose sums became complete, in the order they did: what
+    /// a watcher needs to draw since it last looked, each pixel once. A
+    /// tile merged in turn completes its final pixels; one that arrives
+    /// early, its interior at once and the rest of its final pixels when
+    /// merged. Never more than five regions a tile.
     changes: Vec<Bounds2i>,
     /// The estimate so far, kept for whoever asks (the dashboard).
     running: Running,
@@ -128,11 +130,25 @@ impl Film {
     /// Takes a tile [`Film::check`] found new, and merges every tile whose
     /// turn has come.
     pub fn insert(&mut self, id: TileId, tile: FilmTile) {
-        self.changes.push(tile.pixel_bounds.intersect(&self.geometry.cropped_pixel_bounds));
+        let g = &self.geometry;
+        let crop = g.cropped_pixel_bounds;
+        let early = id.0 != self.next;
+        if early {
+            let inside = g.tile_interior_pixels(id).intersect(&crop);
+            self.changes.extend(Some(inside).filter(|r| !r.is_empty()));
+        }
         self.pending.insert(id.0, tile);
         while let Some(t) = self.pending.remove(&self.next) {
             self.sums.merge(&t);
+            let t = TileId(self.next);
             self.next += 1;
+            let fin = g.tile_final_pixels(t).intersect(&crop);
+            if t == id && !early {
+                self.changes.extend(Some(fin).filter(|r| !r.is_empty()));
+            } else {
+                let shown = g.tile_interior_pixels(t);
+                self.changes.extend(fin.minus(&shown).into_iter().filter(|r| !r.is_empty()));
+            }
         }
     }
 
@@ -183,6 +199,11 @@ impl Film {
         }
         r.upto = self.next;
         (r.counted > 0).then(|| r.sum.max(0.0) / r.counted as f64)
+    }
+
+    /// Whether [`Film::running_estimate`] was asked for.
+    pub fn has_running_estimate(&self) -> bool {
+        self.running.per_pixel.len() == self.geometry.cropped_pixel_bounds.area()
     }
 
     /// Appends the running estimate's per-pixel values over `region`
@@ -382,10 +403,9 @@ mod tests {
         f.accept(TileId(1), tile(&g, 1)).unwrap();
         assert_eq!(f.merged(), 0);
         let (changed, cursor) = f.changes_since(0);
-        assert_eq!(changed, [g.tile_pixel_bounds(TileId(1)).intersect(&all)]);
+        assert_eq!(changed, [g.tile_interior_pixels(TileId(1))]);
         let p = f.preview(all);
-        let t1 = g.tile_pixel_bounds(TileId(1));
-        let inside = t1.min;
+        let inside = changed[0].min;
         let offset = all.offset(inside);
         assert!(p.pixels[offset][0] > 0.0, "an early tile is shown");
         let t0 = g.tile_pixel_bounds(TileId(0));
@@ -394,7 +414,7 @@ mod tests {
             f.accept(TileId(i), tile(&g, i)).unwrap();
         }
         let (changed, end) = f.changes_since(cursor);
-        assert_eq!((changed.len(), end), (n as usize - 1, n as usize));
+        assert_eq!(end, cursor + changed.len());
         assert!(f.changes_since(end).0.is_empty());
         // Once complete, the preview is the image.
         assert_eq!(f.preview(all), f.image());
@@ -402,6 +422,38 @@ mod tests {
         let part = f.preview(corner);
         assert_eq!((part.width, part.height), (10, 10));
         assert_eq!(part.pixels[0], f.image().pixels[all.offset(Point2i::new(30, 10))]);
+    }
+
+    #[test]
+    fn watchers_are_shown_each_pixel_once_when_its_sums_are_complete() {
+        let g = film();
+        let n = g.tile_count();
+        let all = g.cropped_pixel_bounds;
+        let mut whole = Film::new(g.clone());
+        for i in 0..n {
+            whole.accept(TileId(i), tile(&g, i)).unwrap();
+        }
+        // In order, backwards, and shuffled (a fixed multiplicative walk).
+        let orders: [Vec<u32>; 3] =
+            [(0..n).collect(), (0..n).rev().collect(), (0..n).map(|i| (i * 5 + 3) % n).collect()];
+        assert!(!n.is_multiple_of(5), "the walk visits every tile");
+        for order in orders {
+            let mut f = Film::new(g.clone());
+            let (mut cursor, mut times) = (0, vec![0u32; all.area()]);
+            for i in order {
+                f.accept(TileId(i), tile(&g, i)).unwrap();
+                let (changed, next) = f.changes_since(cursor);
+                for r in changed {
+                    // Shown as they will be in the image, to the bit.
+                    assert_eq!(f.region_sums(*r), whole.region_sums(*r), "{r:?} after {i}");
+                    for p in r.iter() {
+                        times[all.offset(p)] += 1;
+                    }
+                }
+                cursor = next;
+            }
+            assert!(times.iter().all(|&t| t == 1), "each pixel shown once");
+        }
     }
 
     #[test]

@@ -219,6 +219,38 @@ impl FilmGeometry {
     }
 }
 
+impl FilmGeometry {
+    /// The pixels no tile but `id` reaches: their sums are complete as soon
+    /// as this tile is in, whatever has arrived before it. The tiles next
+    /// to it reach furthest into it (a tile's pixel bounds grow with its
+    /// column and row), so it is the tile's pixel bounds less theirs.
+    pub fn tile_interior_pixels(&self, id: TileId) -> Bounds2i {
+        let mut b = self.tile_pixel_bounds(id);
+        let (nx, ny) = (self.n_tiles.x as u32, self.n_tiles.y as u32);
+        if nx == 0 || b.is_empty() {
+            return b;
+        }
+        let (col, row) = (id.0 % nx, id.0 / nx);
+        let near = |t: u32| Some(self.tile_pixel_bounds(TileId(t))).filter(|n| !n.is_empty());
+        if let Some(n) = (col > 0).then(|| near(id.0 - 1)).flatten() {
+            b.min.x = b.min.x.max(n.max.x);
+        }
+        if let Some(n) = (col + 1 < nx).then(|| near(id.0 + 1)).flatten() {
+            b.max.x = b.max.x.min(n.min.x);
+        }
+        if let Some(n) = (row > 0).then(|| near(id.0 - nx)).flatten() {
+            b.min.y = b.min.y.max(n.max.y);
+        }
+        if let Some(n) = (row + 1 < ny).then(|| near(id.0 + nx)).flatten() {
+            b.max.y = b.max.y.min(n.min.y);
+        }
+        if b.is_empty() {
+            return Bounds2i::default();
+        }
+        b
+    }
+}
+
 /// The pixels of a `res.x × res.y` film.
 fn full_pixels(res: Point2i) -> Bounds2i {
     Bounds2i::new(Point2i::new(0, 0), res)
@@ -290,8 +322,7 @@ mod tests {
         assert!(count.iter().all(|&c| c == 1));
     }
 
-    #[test]
-    fn each_pixel_is_final_at_the_last_tile_that_reaches_it() {
+    fn cases() -> Vec<FilmGeometry> {
         let crop = |w: i32, h: i32, c: Bounds2i, r: f32| {
             FilmGeometry::new(
                 Point2i::new(w, h),
@@ -312,7 +343,12 @@ mod tests {
             crop(70, 60, Bounds2i::new(Point2i::new(13, 7), Point2i::new(51, 33)), 1.5),
             crop(70, 60, Bounds2i::new(Point2i::new(16, 16), Point2i::new(17, 40)), 3.0),
         ];
-        for f in cases {
+        cases.into()
+    }
+
+    #[test]
+    fn each_pixel_is_final_at_the_last_tile_that_reaches_it() {
+        for f in cases() {
             let b = f.cropped_pixel_bounds;
             let mut last = vec![None; b.area()];
             let mut finals = vec![None; b.area()];
@@ -329,6 +365,42 @@ mod tests {
             }
             assert!(last.iter().all(Option::is_some), "every pixel is reached");
             assert_eq!(finals, last, "final at the last tile that reaches it ({b:?})");
+        }
+    }
+
+    #[test]
+    fn a_tiles_interior_is_what_no_other_tile_reaches() {
+        for f in cases() {
+            let b = f.cropped_pixel_bounds;
+            let mut reach = vec![Vec::new(); b.area()];
+            for t in 0..f.tile_count() {
+                for p in f.tile_pixel_bounds(TileId(t)).iter() {
+                    reach[b.offset(p)].push(t);
+                }
+            }
+            for t in 0..f.tile_count() {
+                let inside = f.tile_interior_pixels(TileId(t));
+                for p in b.iter() {
+                    let only = reach[b.offset(p)] == [t];
+                    assert_eq!(inside.contains(p), only, "{p:?}, tile {t}, {b:?}");
+                }
+                let fin = f.tile_final_pixels(TileId(t));
+                assert!(inside.is_empty() || fin.intersect(&inside) == inside);
+            }
+        }
+    }
+
+    #[test]
+    fn a_rectangle_less_another_is_what_lies_outside_it() {
+        let r = |x0, y0, x1, y1| Bounds2i::new(Point2i::new(x0, y0), Point2i::new(x1, y1));
+        let a = r(2, 3, 12, 9);
+        for o in [r(4, 4, 8, 6), r(0, 0, 5, 20), r(2, 3, 12, 9), r(20, 20, 30, 30), r(5, 0, 6, 4)] {
+            let parts = a.minus(&o);
+            for p in r(0, 0, 14, 12).iter() {
+                let n = parts.iter().filter(|q| q.contains(p)).count();
+                let outside = a.contains(p) && !o.contains(p);
+                assert_eq!(n, usize::from(outside), "{p:?} in {a:?} less {o:?}");
+            }
         }
     }
 }

@@ -65,6 +65,24 @@ impl Bounds2i {
     pub fn offset(&self, p: Point2i) -> usize {
         ((p.y - self.min.y) * self.width() + (p.x - self.min.x)) as usize
     }
+    /// The pixels of `self` outside `o`, as up to four rectangles (some
+    /// possibly empty): the rows above `o`, the rows below, and left and
+    /// right of it in between.
+    pub fn minus(&self, o: &Bounds2i) -> [Bounds2i; 4] {
+        let cut = self.intersect(o);
+        if cut.is_empty() {
+            return [*self, Bounds2i::default(), Bounds2i::default(), Bounds2i::default()];
+        }
+        let (x0, x1) = (self.min.x, self.max.x);
+        let (y0, y1) = (cut.min.y, cut.max.y);
+        let b = |ax, ay, bx, by| Bounds2i::new(Point2i::new(ax, ay), Point2i::new(bx, by));
+        [
+            b(x0, self.min.y, x1, y0),
+            b(x0, y1, x1, self.max.y),
+            b(x0, y0, cut.min.x, y1),
+            b(cut.max.x, y0, x1, y1),
+        ]
+    }
     /// The pixels in row-major order.
     pub fn iter(self) -> impl Iterator<Item = Point2i> {
         let (x0, x1) = (self.min.x, self.max.x);

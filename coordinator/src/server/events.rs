@@ -96,6 +96,8 @@ pub enum Event {
         job: JobId,
         /// The page's cursor.
         from: usize,
+        /// The tiles whose error map the page has drawn.
+        merged: u32,
         /// What there is to show.
         reply: oneshot::Sender<LiveAnswer>,
     },
@@ -228,8 +230,9 @@ pub async fn run(mut rx: mpsc::UnboundedReceiver<Event>, config: ServerConfig, s
                 let views = sched.views(now, |job| estimates.get(&job).copied().flatten());
                 let _ = reply.send(views);
             }
-            Event::Live { job, from, reply } => {
-                let _ = reply.send(live_answer(&mut sched, &mut out.recent, job, from, now));
+            Event::Live { job, from, merged, reply } => {
+                let at = (from, merged);
+                let _ = reply.send(live_answer(&mut sched, &mut out.recent, job, at, now));
             }
             Event::Priority { job, priority, reply } => {
                 let _ = reply.send(sched.set_priority(job, priority, &mut out));

@@ -4,6 +4,7 @@
 use super::outbox::GrpcOutbox;
 use crate::live::shift;
 use crate::scheduler::{FinishedJob, JobUpdate, Scheduler, Snapshot};
+use farm_common::film::FilmGeometry;
 use farm_common::ids::JobId;
 use farm_proto::convert::preview_region;
 use farm_proto::v1::{self, job_event};
@@ -22,8 +23,9 @@ pub enum LiveAnswer {
     /// Running: the page's answer ([`crate::web::live`]'s format), with
     /// the pieces changed since its cursor.
     Running(Vec<u8>),
-    /// Done, with the image in memory.
-    Done(Arc<FinishedJob>),
+    /// Done, with the image in memory, and the film's layout when a page
+    /// was looking as it ended (so it can be sent only what it lacks).
+    Done(Arc<FinishedJob>, Option<FilmGeometry>),
     /// Done, with the image in the journal.
     Stored,
     /// Failed or cancelled: there is no image.
@@ -47,9 +49,9 @@ const KEEP_BYTES: usize = 128 << 20;
 /// within a byte budget.
 #[derive(Default)]
 pub(super) struct RecentImages {
-    /// When a page last looked at each running job.
-    looked: HashMap<JobId, Instant>,
-    kept: VecDeque<(JobId, Instant, Arc<FinishedJob>)>,
+    /// When a page last looked at each running job, and its film's layout.
+    looked: HashMap<JobId, (Instant, FilmGeometry)>,
+    kept: VecDeque<(JobId, Instant, Arc<FinishedJob>, FilmGeometry)>,
 }
 
 fn size(f: &FinishedJob) -> usize {
@@ -58,55 +60,61 @@ fn size(f: &FinishedJob) -> usize {
 
 impl RecentImages {
     /// A page looked at running `job`.
-    pub(super) fn looked(&mut self, job: JobId, now: Instant) {
-        self.looked.insert(job, now);
+    pub(super) fn looked(&mut self, job: JobId, geometry: &FilmGeometry, now: Instant) {
+        match self.looked.get_mut(&job) {
+            Some(l) => l.0 = now,
+            None => drop(self.looked.insert(job, (now, geometry.clone()))),
+        }
     }
 
     /// `job` finished: keep its image if a page looked at it lately.
     pub(super) fn finished(&mut self, job: JobId, f: &Arc<FinishedJob>, now: Instant) {
-        let Some(at) = self.looked.remove(&job) else { return };
+        let Some((at, geometry)) = self.looked.remove(&job) else { return };
         if now.duration_since(at) > PAGE_LOOKS_EVERY || size(f) > KEEP_BYTES {
             return;
         }
-        self.kept.push_back((job, now, f.clone()));
-        while self.kept.iter().map(|(_, _, f)| size(f)).sum::<usize>() > KEEP_BYTES {
+        self.kept.push_back((job, now, f.clone(), geometry));
+        while self.kept.iter().map(|(_, _, f, _)| size(f)).sum::<usize>() > KEEP_BYTES {
             self.kept.pop_front();
         }
     }
 
-    /// A kept image of `job`.
-    fn get(&self, job: JobId) -> Option<Arc<FinishedJob>> {
-        self.kept.iter().find(|(j, _, _)| *j == job).map(|(_, _, f)| f.clone())
+    /// A kept image of `job`, and its film's layout.
+    fn get(&self, job: JobId) -> Option<(Arc<FinishedJob>, FilmGeometry)> {
+        self.kept.iter().find(|k| k.0 == job).map(|(_, _, f, g)| (f.clone(), g.clone()))
     }
 
     /// Forgets what is past its time, and pages of jobs that ended otherwise.
     pub(super) fn expire(&mut self, now: Instant) {
-        self.kept.retain(|(_, at, _)| now.duration_since(*at) <= KEEP_FOR);
-        self.looked.retain(|_, at| now.duration_since(*at) <= PAGE_LOOKS_EVERY);
+        self.kept.retain(|(_, at, _, _)| now.duration_since(*at) <= KEEP_FOR);
+        self.looked.retain(|_, (at, _)| now.duration_since(*at) <= PAGE_LOOKS_EVERY);
     }
 }
 
-/// What a dashboard page at cursor `from` is shown of `job`.
+/// What a dashboard page is shown of `job`, at cursor `from` into the
+/// film's changes with `merged` tiles' error map drawn.
 pub(super) fn live_answer(
     sched: &mut Scheduler,
     recent: &mut RecentImages,
     job: JobId,
-    from: usize,
+    (from, merged): (usize, u32),
     now: Instant,
 ) -> LiveAnswer {
     if let Some(film) = sched.film_mut(job) {
-        recent.looked(job, now);
+        recent.looked(job, film.geometry(), now);
         // The error map is the running estimate's, brought up to date.
         film.running_estimate();
-        return LiveAnswer::Running(crate::web::live::running(film, from));
+        return LiveAnswer::Running(crate::web::live::running(film, from, merged));
     }
     match sched.snapshot(job) {
         None => LiveAnswer::NoJob,
         Some(Snapshot::Stored) => match recent.get(job) {
-            Some(f) => LiveAnswer::Done(f),
+            Some((f, g)) => LiveAnswer::Done(f, Some(g)),
             None => LiveAnswer::Stored,
         },
-        Some(Snapshot::Update(JobUpdate::Finished(f))) => LiveAnswer::Done(f),
+        Some(Snapshot::Update(JobUpdate::Finished(f))) => {
+            LiveAnswer::Done(f, recent.get(job).map(|(_, g)| g))
+        }
         Some(Snapshot::Update(_)) => LiveAnswer::Ended,
     }
 }
@@ -161,15 +169,18 @@ mod tests {
     #[test]
     fn finished_images_are_kept_briefly_for_pages_that_were_looking() {
         let t0 = Instant::now();
+        let (at, b) = (farm_common::geometry::Point2i::new(4, 1), Default::default());
+        let r2 = farm_common::geometry::Vec2::splat(0.5);
+        let g = FilmGeometry::new(at, b, r2, 1.0, f32::INFINITY, "x.exr".into(), 35.0);
         let mut r = RecentImages::default();
         // Nobody looked at job 1; a page looked at job 2 just before it ended.
         r.finished(JobId(1), &finished(4), t0);
-        r.looked(JobId(2), t0);
+        r.looked(JobId(2), &g, t0);
         r.finished(JobId(2), &finished(4), t0 + Duration::from_secs(1));
         assert!(r.get(JobId(1)).is_none(), "no page was open");
         assert!(r.get(JobId(2)).is_some());
         // A page that stopped looking long before the end.
-        r.looked(JobId(3), t0);
+        r.looked(JobId(3), &g, t0);
         r.finished(JobId(3), &finished(4), t0 + PAGE_LOOKS_EVERY + Duration::from_secs(1));
         assert!(r.get(JobId(3)).is_none());
         // Kept for a while only.
@@ -180,13 +191,13 @@ mod tests {
         // Within the byte budget: the oldest go first, and a huge image is not kept.
         let big = KEEP_BYTES / 12 / 2;
         for j in 4..7 {
-            r.looked(JobId(j), t0);
+            r.looked(JobId(j), &g, t0);
             r.finished(JobId(j), &finished(big), t0);
         }
         assert!(
             r.get(JobId(4)).is_none() && r.get(JobId(5)).is_some() && r.get(JobId(6)).is_some()
         );
-        r.looked(JobId(7), t0);
+        r.looked(JobId(7), &g, t0);
         r.finished(JobId(7), &finished(KEEP_BYTES / 12 + 1), t0);
         assert!(r.get(JobId(7)).is_none());
     }

@@ -74,33 +74,36 @@ function startLive(box) {
   const image = document.getElementById("image");
   const error = document.getElementById("error");
   let from = 0;
+  let merged = 0;
   let updates = 0;
   async function look() {
     let again = true;
     try {
-      const r = await fetch(`${box.dataset.live}?from=${from}`, { cache: "no-store" });
+      const r = await fetch(`${box.dataset.live}?from=${from}&merged=${merged}`, { cache: "no-store" });
       if (r.ok) again = draw(new DataView(await r.arrayBuffer()));
     } catch (e) { /* try again */ }
     if (again) setTimeout(look, 1000);
   }
   // Returns whether to keep looking. The answer's layout is documented in
   // the coordinator's web/live.rs: pieces of the film's sums, which the
-  // page resolves and tone-maps itself.
+  // page resolves and tone-maps itself, and of the error map.
   function draw(d) {
     const u = (i) => d.getUint32(i, true);
     const f = (i) => d.getFloat32(i, true);
-    const [w, h, next, state, scale, n] = [u(0), u(4), u(8), u(12), f(16), u(20)];
+    const [w, h, next, done, state, scale, n] = [u(0), u(4), u(8), u(12), u(16), f(20), u(24)];
     if (state === 2) return false;
     if (w > 0 && (image.width !== w || image.height !== h)) {
       for (const c of [image, error]) { c.width = w; c.height = h; }
     }
-    let at = 24;
+    let at = 28;
     for (let k = 0; k < n; k++) {
-      const [x, y, pw, ph, hasError] = [u(at), u(at + 4), u(at + 8), u(at + 12), u(at + 16)];
+      const [x, y, pw, ph, kind] = [u(at), u(at + 4), u(at + 8), u(at + 12), u(at + 16)];
       at += 20;
       const count = pw * ph;
-      const px = new Uint8ClampedArray(count * 4);
-      if (state === 1) {
+      const px = new Uint8ClampedArray(kind === 2 ? 0 : count * 4);
+      if (kind === 2) {
+        // The error map only.
+      } else if (state === 1) {
         // The finished image: its pixel values.
         for (let i = 0; i < count; i++, at += 12) {
           for (let c = 0; c < 3; c++) px[4 * i + c] = srgb8(f(at + 4 * c));
@@ -119,8 +122,8 @@ function startLive(box) {
           px[4 * i + 3] = 255;
         }
       }
-      image.getContext("2d").putImageData(new ImageData(px, pw, ph), x, y);
-      if (hasError) {
+      if (kind !== 2) image.getContext("2d").putImageData(new ImageData(px, pw, ph), x, y);
+      if (kind !== 0) {
         const heat = new Uint8ClampedArray(count * 4);
         for (let i = 0; i < count; i++, at += 4) {
           heat.set(heatColour(f(at)), 4 * i);
@@ -130,6 +133,7 @@ function startLive(box) {
     }
     if (n > 0) image.dataset.updates = String(++updates);
     from = next;
+    merged = done;
     if (state === 1) { image.dataset.done = "1"; return false; }
     return true;
   }

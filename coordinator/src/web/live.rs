@@ -1,24 +1,29 @@
-//! `/api/jobs/ID/live?from=N`: what a job page draws. The page keeps a
-//! cursor into the film's changes (see [`crate::live`]) and is sent the
-//! pieces changed since it as the film's sums, unresolved, with the error
-//! map's pieces beside them: the coordinator only copies, and the page
-//! divides, tone-maps and colours (`dashboard.js`). All numbers
+//! `/api/jobs/ID/live?from=N&merged=M`: what a job page draws. The page
+//! keeps a cursor into the film's changes (see [`crate::live`]) and the
+//! count of tiles merged when it last looked, and is sent what is new
+//! since: the pixels whose sums became complete, as the film's sums,
+//! unresolved, and the error map over the pixels of the tiles merged since
+//! (the running estimate's, [`FilmGeometry::tile_final_pixels`]). Each
+//! pixel and its error are sent once. The coordinator only copies; the
+//! page divides, tone-maps and colours (`dashboard.js`). All numbers
 //! little-endian, every field 4 bytes:
 //!
 //! ```text
-//! u32 width, u32 height, u32 next cursor, u32 state (0 running, 1 done, 2 ended without an image),
-//! f32 scale, u32 piece count, then per piece:
-//!   u32 x0, u32 y0, u32 w, u32 h, u32 has error map (0 or 1),
-//!   running: w·h × (f32 Σw·r, Σw·g, Σw·b, Σw); done: w·h × (f32 r, g, b),
-//!   then w·h × f32 relMSE if it has an error map
+//! u32 width, u32 height, u32 next cursor, u32 tiles merged, u32 state (0 running,
+//! 1 done, 2 ended without an image), f32 scale, u32 piece count, then per piece:
+//!   u32 x0, u32 y0, u32 w, u32 h, u32 kind (0 pixels, 1 pixels and error map, 2 error map),
+//!   pixels: running: w·h × (f32 Σw·r, Σw·g, Σw·b, Σw); done: w·h × (f32 r, g, b),
+//!   then error map: w·h × f32 relMSE
 //! ```
 //!
 //! While running, a pixel shows max(Σw·c / Σw, 0) · scale (Σw·c · scale
-//! where Σw is 0). A finished image is one piece of the written pixel
-//! values, copied as the journal holds them.
+//! where Σw is 0). Once the job is done, a page that was looking as it
+//! ended is sent the written pixel values and error map of the tiles it
+//! had not seen merged; any other page, the whole image as one piece,
+//! copied as the journal holds it.
 
 use super::{may_touch, Caller, Web};
-use crate::live::{shift, LiveCursor};
+use crate::live::{shift, strips, LiveCursor};
 use crate::merge::Film;
 use crate::server::events::{Event, LiveAnswer};
 use crate::state::Command;
@@ -26,8 +31,9 @@ use axum::body::Body;
 use axum::extract::{Path, Query, State};
 use axum::http::{header, HeaderValue, StatusCode};
 use axum::response::{IntoResponse, Response};
+use farm_common::film::FilmGeometry;
 use farm_common::geometry::{Bounds2i, Point2i};
-use farm_common::ids::JobId;
+use farm_common::ids::{JobId, TileId};
 use farm_common::image::RgbImage;
 use farm_proto::v1;
 use prost::Message;
@@ -36,6 +42,8 @@ use prost::Message;
 pub(super) struct Since {
     #[serde(default)]
     from: usize,
+    #[serde(default)]
+    merged: u32,
 }
 
 /// The answer's state field.
@@ -43,43 +51,113 @@ const RUNNING: u32 = 0;
 const DONE: u32 = 1;
 const ENDED: u32 = 2;
 
+/// A piece's kind: what follows its header.
+const PIXELS: u32 = 0;
+const PIXELS_AND_ERROR: u32 = 1;
+const ERROR: u32 = 2;
+
 fn put(out: &mut Vec<u8>, v: u32) {
     out.extend_from_slice(&v.to_le_bytes());
 }
 
-fn header(width: u32, height: u32, next: usize, state: u32, scale: f32, pieces: usize) -> Vec<u8> {
-    let mut out = Vec::new();
-    for v in [width, height, next as u32, state, scale.to_bits(), pieces as u32] {
-        put(&mut out, v);
-    }
-    out
+/// The answer's header.
+struct Header {
+    width: u32,
+    height: u32,
+    next: usize,
+    merged: u32,
+    state: u32,
+    scale: f32,
+    pieces: usize,
 }
 
-/// Appends a piece's header; returns where its error-map flag is.
-fn piece_header(out: &mut Vec<u8>, b: Bounds2i, has_error: bool) -> usize {
+impl Header {
+    fn done(width: u32, height: u32, merged: u32, pieces: usize) -> Header {
+        Header { width, height, next: 0, merged, state: DONE, scale: 1.0, pieces }
+    }
+
+    fn bytes(&self) -> Vec<u8> {
+        let mut out = Vec::new();
+        let Header { width, height, next, merged, state, scale, pieces } = *self;
+        for v in [width, height, next as u32, merged, state, scale.to_bits(), pieces as u32] {
+            put(&mut out, v);
+        }
+        out
+    }
+}
+
+fn piece_header(out: &mut Vec<u8>, b: Bounds2i, kind: u32) {
     for v in [b.min.x, b.min.y, b.width(), b.height()] {
         put(out, v as u32);
     }
-    put(out, u32::from(has_error));
-    out.len() - 4
+    put(out, kind);
 }
 
-/// A running job's answer: the pieces changed since cursor `from`, as
-/// they stand, with the running estimate's error map (as last brought up
-/// to date).
-pub fn running(film: &Film, from: usize) -> Vec<u8> {
+/// The final pixels of tiles `from..to` (image coordinates), as strips.
+fn final_pixels(g: &FilmGeometry, from: u32, to: u32) -> Vec<Bounds2i> {
+    let b = g.cropped_pixel_bounds;
+    let fin = (from.min(to)..to).map(|t| g.tile_final_pixels(TileId(t)).intersect(&b));
+    strips(fin.map(|r| shift(r, -b.min.x, -b.min.y)))
+}
+
+/// A running job's answer: the pixels completed since cursor `from`, and
+/// the running estimate's error map (as last brought up to date) over the
+/// tiles merged since the page saw `merged`.
+pub fn running(film: &Film, from: usize, merged: u32) -> Vec<u8> {
     let g = film.geometry();
     let b = g.cropped_pixel_bounds;
     let mut cursor = LiveCursor::at(from);
     let regions = cursor.take(film, usize::MAX);
-    let (w, h) = (b.width() as u32, b.height() as u32);
-    let mut out = header(w, h, cursor.position(), RUNNING, g.scale, regions.len());
-    out.reserve(regions.iter().map(|r| 20 + r.area() * 20).sum());
+    let now = film.merged();
+    let errors =
+        if film.has_running_estimate() { final_pixels(g, merged, now) } else { Vec::new() };
+    let (width, height) = (b.width() as u32, b.height() as u32);
+    let pieces = regions.len() + errors.len();
+    let (next, state, scale) = (cursor.position(), RUNNING, g.scale);
+    let mut out = Header { width, height, next, merged: now, state, scale, pieces }.bytes();
+    let area = |v: &[Bounds2i]| v.iter().map(|r| 20 + r.area()).sum::<usize>();
+    out.reserve(area(&regions) * 16 + area(&errors) * 4);
     for r in regions {
-        let flag = piece_header(&mut out, r, false);
+        piece_header(&mut out, r, PIXELS);
         out.extend_from_slice(&film.region_sums(shift(r, b.min.x, b.min.y)));
-        if film.write_error_map(r, &mut out) {
-            out[flag] = 1;
+    }
+    for r in errors {
+        piece_header(&mut out, r, ERROR);
+        film.write_error_map(r, &mut out);
+    }
+    out
+}
+
+/// A finished image's answer for a page that had seen `merged` tiles of
+/// the film laid out as `g` merged: their written values and error map
+/// over the tiles' final pixels it had not.
+pub fn finished_since(
+    image: &RgbImage,
+    error: Option<&[f32]>,
+    g: &FilmGeometry,
+    merged: u32,
+) -> Vec<u8> {
+    let (w, h) = (image.width, image.height);
+    let error = error.filter(|e| e.len() == image.pixels.len());
+    let regions = final_pixels(g, merged, g.tile_count());
+    let cropped = g.cropped_pixel_bounds;
+    if merged == 0 || (cropped.width() as usize, cropped.height() as usize) != (w, h) {
+        return finished(image, error);
+    }
+    let mut out = Header::done(w as u32, h as u32, g.tile_count(), regions.len()).bytes();
+    let kind = if error.is_some() { PIXELS_AND_ERROR } else { PIXELS };
+    for r in regions {
+        piece_header(&mut out, r, kind);
+        let rows = r.min.y as usize..r.max.y as usize;
+        let cols = r.min.x as usize..r.max.x as usize;
+        for y in rows.clone() {
+            let row = &image.pixels[y * w..][cols.clone()];
+            out.extend(row.iter().flatten().flat_map(|v| v.to_le_bytes()));
+        }
+        if let Some(e) = error {
+            for y in rows.clone() {
+                out.extend(e[y * w..][cols.clone()].iter().flat_map(|v| v.to_le_bytes()));
+            }
         }
     }
     out
@@ -88,10 +166,10 @@ pub fn running(film: &Film, from: usize) -> Vec<u8> {
 /// A finished image's answer: one piece of the whole image.
 pub fn finished(image: &RgbImage, error: Option<&[f32]>) -> Vec<u8> {
     let (w, h) = (image.width as u32, image.height as u32);
-    let mut out = header(w, h, 0, DONE, 1.0, 1);
+    let mut out = Header::done(w, h, 0, 1).bytes();
     let b = Bounds2i::new(Point2i::new(0, 0), Point2i::new(w as i32, h as i32));
     let error = error.filter(|e| e.len() == image.pixels.len());
-    piece_header(&mut out, b, error.is_some());
+    piece_header(&mut out, b, if error.is_some() { PIXELS_AND_ERROR } else { PIXELS });
     let mut body: Vec<[u8; 4]> = Vec::with_capacity(image.pixels.len() * 4);
     body.extend(image.pixels.iter().flatten().map(|v| v.to_le_bytes()));
     body.extend(error.into_iter().flatten().map(|v| v.to_le_bytes()));
@@ -128,9 +206,9 @@ pub fn finished_from_events(events: &[Vec<u8>]) -> Option<Vec<u8>> {
     if row != h {
         return None;
     }
-    let mut out = header(w as u32, h as u32, 0, DONE, 1.0, 1);
+    let mut out = Header::done(w as u32, h as u32, 0, 1).bytes();
     let b = Bounds2i::new(Point2i::new(0, 0), Point2i::new(w as i32, h as i32));
-    piece_header(&mut out, b, with_error);
+    piece_header(&mut out, b, if with_error { PIXELS_AND_ERROR } else { PIXELS });
     out.reserve(w * h * if with_error { 16 } else { 12 });
     for c in &chunks {
         out.extend_from_slice(&c.rgb);
@@ -167,15 +245,24 @@ pub(super) async fn live(
     if let Err(refused) = may_touch(&web, &caller, job).await {
         return refused;
     }
-    let Some(answer) = super::ask(&web, |reply| Event::Live { job, from: q.from, reply }).await
+    let (from, merged) = (q.from, q.merged);
+    let Some(answer) = super::ask(&web, |reply| Event::Live { job, from, merged, reply }).await
     else {
         return super::shutting_down();
     };
-    let ended = || binary(header(0, 0, 0, ENDED, 1.0, 0));
+    let ended = || {
+        let h =
+            Header { width: 0, height: 0, next: 0, merged: 0, state: ENDED, scale: 1.0, pieces: 0 };
+        binary(h.bytes())
+    };
     match answer {
         LiveAnswer::Running(bytes) => binary(bytes),
-        LiveAnswer::Done(f) => {
-            binary(finished(&f.image, f.error.as_ref().map(|e| e.per_pixel.as_slice())))
+        LiveAnswer::Done(f, geometry) => {
+            let error = f.error.as_ref().map(|e| e.per_pixel.as_slice());
+            binary(match geometry {
+                Some(g) => finished_since(&f.image, error, &g, merged),
+                None => finished(&f.image, error),
+            })
         }
         LiveAnswer::Stored => match stored(&web, job).await {
             Some(bytes) => binary(bytes),
@@ -210,25 +297,73 @@ mod tests {
         }
         film.accept(TileId(0), t).unwrap();
         film.running_estimate();
-        let u = words(&running(&film, 0));
-        assert_eq!(&u[..6], &[40, 20, 1, RUNNING, 2.0f32.to_bits(), 1]);
-        let (w, h) = (tb.width() as u32, tb.height() as u32);
-        assert_eq!(&u[6..11], &[0, 0, w, h, 1], "tile 0's pixels, with an error map");
+        let u = words(&running(&film, 0, 0));
+        assert_eq!(&u[..7], &[40, 20, 1, 1, RUNNING, 2.0f32.to_bits(), 2]);
+        let fb = g.tile_final_pixels(TileId(0));
+        let (w, h, n) = (fb.width() as u32, fb.height() as u32, fb.area());
+        assert_eq!(&u[7..12], &[0, 0, w, h, PIXELS], "tile 0's final pixels");
         let f = |i: usize| f32::from_bits(u[i]);
-        assert_eq!([f(11), f(12), f(13), f(14)], [2.0, 0.0, 1.0, 1.0], "the first pixel's sums");
-        assert_eq!(u.len(), 11 + tb.area() * 5);
-        assert!(f(11 + tb.area() * 4) > 0.0, "an error estimate follows the sums");
-        let again = words(&running(&film, 1));
-        assert_eq!(&again[..6], &[40, 20, 1, RUNNING, 2.0f32.to_bits(), 0], "nothing new");
+        assert_eq!([f(12), f(13), f(14), f(15)], [2.0, 0.0, 1.0, 1.0], "the first pixel's sums");
+        let e = 12 + n * 4;
+        assert_eq!(&u[e..e + 5], &[0, 0, w, h, ERROR], "then their error map");
+        assert_eq!(u.len(), e + 5 + n);
+        assert!(f(e + 5) > 0.0, "an error estimate");
+        let again = words(&running(&film, 1, 1));
+        assert_eq!(&again[..7], &[40, 20, 1, 1, RUNNING, 2.0f32.to_bits(), 0], "nothing new");
+        // A page that missed the error map sees it again; one from the future sees nothing.
+        assert_eq!(words(&running(&film, 1, 0))[6], 1);
+        assert_eq!(words(&running(&film, 9, 99))[..7], again[..7]);
     }
 
     #[test]
     fn a_finished_answer_is_one_piece_of_pixel_values() {
         let image = RgbImage { width: 2, height: 1, pixels: vec![[1.0, 0.0, 0.5], [0.0; 3]] };
         let u = words(&finished(&image, Some(&[0.25, 0.0])));
-        assert_eq!(&u[..11], &[2, 1, 0, DONE, 1f32.to_bits(), 1, 0, 0, 2, 1, 1]);
-        let f: Vec<f32> = u[11..].iter().map(|&v| f32::from_bits(v)).collect();
+        let one = 1f32.to_bits();
+        assert_eq!(&u[..12], &[2, 1, 0, 0, DONE, one, 1, 0, 0, 2, 1, PIXELS_AND_ERROR]);
+        let f: Vec<f32> = u[12..].iter().map(|&v| f32::from_bits(v)).collect();
         assert_eq!(f, [1.0, 0.0, 0.5, 0.0, 0.0, 0.0, 0.25, 0.0]);
+    }
+
+    #[test]
+    fn a_page_that_was_looking_is_sent_only_the_tiles_it_had_not_seen() {
+        let b = Bounds2i::new(Point2i::new(0, 0), Point2i::new(40, 20));
+        let g = FilmGeometry::new(b.max, b, Vec2::splat(1.5), 1.0, f32::INFINITY, "x".into(), 35.0);
+        let pixels = (0..b.area()).map(|i| [i as f32, 1.0, 2.0]).collect();
+        let image = RgbImage { width: 40, height: 20, pixels };
+        let error: Vec<f32> = (0..b.area()).map(|i| i as f32 * 1e-3).collect();
+        let n = g.tile_count();
+        for seen in 1..n {
+            let u = words(&finished_since(&image, Some(&error), &g, seen));
+            assert_eq!(&u[..5], &[40, 20, 0, n, DONE]);
+            let mut drawn = vec![0; b.area()];
+            let mut at = 7;
+            for _ in 0..u[6] {
+                let (x, y, w, h, kind) = (u[at], u[at + 1], u[at + 2], u[at + 3], u[at + 4]);
+                assert_eq!(kind, PIXELS_AND_ERROR);
+                at += 5;
+                let r = Bounds2i::new(
+                    Point2i::new(x as i32, y as i32),
+                    Point2i::new((x + w) as i32, (y + h) as i32),
+                );
+                for (k, p) in r.iter().enumerate() {
+                    let i = b.offset(p);
+                    assert_eq!(f32::from_bits(u[at + 3 * k]), i as f32, "the written value");
+                    let e = at + 3 * r.area() + k;
+                    assert_eq!(f32::from_bits(u[e]), error[i], "its error");
+                    drawn[i] += 1;
+                }
+                at += 4 * r.area();
+            }
+            assert_eq!(at, u.len());
+            let unseen = |p: Point2i| (seen..n).any(|t| g.tile_final_pixels(TileId(t)).contains(p));
+            for p in b.iter() {
+                assert_eq!(drawn[b.offset(p)], i32::from(unseen(p)), "{p:?} after {seen}");
+            }
+        }
+        // A page that never looked gets the whole image.
+        let whole = finished(&image, Some(&error));
+        assert_eq!(finished_since(&image, Some(&error), &g, 0), whole);
     }
 
     #[test]

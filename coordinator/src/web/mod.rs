@@ -8,7 +8,7 @@
 //! POST /signout
 //! GET  /fragments/jobs, /fragments/workers, /fragments/job/ID   the tables, as HTML
 //! GET  /api/status              jobs and workers as JSON
-//! GET  /api/jobs/ID/live?from=N the pieces of the image changed since cursor N (binary, see `live.rs`)
+//! GET  /api/jobs/ID/live?from=N&merged=M the pixels completed since cursor N, the error map of tiles M.. (binary, see `live.rs`)
 //! POST /api/jobs/ID/cancel, /api/jobs/ID/priority (priority=P)
 //! GET  /metrics                 Prometheus text format
 //! GET  /assets/…                the script and style sheet (served by the binary: no CDN)
