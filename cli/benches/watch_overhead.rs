@@ -13,7 +13,8 @@
 //! workers of one thread, `farm submit --coordinator`. The "dashboard" is
 //! this program making the requests a job page's script makes: the live
 //! image every second and the job's facts every two, and the finished
-//! image once the render ends (the coordinator's CPU is read after it).
+//! image once the render ends. The coordinator's CPU is read a few seconds
+//! after both, once the journal has also finished with the job.
 //!
 //! CPU time on a shared machine varies by more than the few percent being
 //! measured, so `FARM_CALLGRIND=1` runs the coordinator under valgrind's
@@ -294,6 +295,10 @@ fn render(
     // finished image.
     stop.store(true, Ordering::Relaxed);
     let requests = poller.map(|p| p.join().unwrap_or(0)).unwrap_or(0);
+    // The render's own work goes on after its client has the image (the
+    // journal deletes the job's tiles): let it end, the same time in both
+    // modes, so neither is cut short.
+    std::thread::sleep(Duration::from_secs(if cg.is_some() { 5 } else { 2 }));
     let cpu = cpu_seconds(coord) - cpu0;
     let instructions = cg.map(Callgrind::dump);
     Run { wall, cpu, instructions, tev_bytes: bytes.load(Ordering::Relaxed), requests }

@@ -276,21 +276,35 @@ impl Film {
     /// resolves them ([`farm_common::film::resolve`] with the film's
     /// scale), so the coordinator only copies.
     pub fn region_sums(&self, region: Bounds2i) -> Vec<u8> {
+        let mut out = Vec::new();
+        self.write_region_sums(region, &mut out);
+        out
+    }
+
+    /// [`Film::region_sums`], appended to `out`.
+    pub fn write_region_sums(&self, region: Bounds2i, out: &mut Vec<u8>) {
         let b = region.intersect(&self.geometry.cropped_pixel_bounds);
         if b.is_empty() {
-            return Vec::new();
+            return;
         }
         let n = b.width() as usize;
-        let mut out: Vec<[u8; 16]> = Vec::with_capacity(b.area());
+        let start = out.len();
+        out.reserve(b.area() * 16);
+        // A row at a time through a small buffer: filled a pixel at a
+        // time, copied whole.
+        let mut row: Vec<[u8; 16]> = Vec::with_capacity(n);
         for y in b.min.y..b.max.y {
             let i = self.sums.pixel_bounds.offset(Point2i::new(b.min.x, y));
-            out.extend(self.sums.pixels[i..i + n].iter().map(|p| {
+            row.clear();
+            row.extend(self.sums.pixels[i..i + n].iter().map(|p| {
                 let [r, g, bl] = p.contrib;
                 le_bytes([r, g, bl, p.weight])
             }));
+            out.extend_from_slice(row.as_flattened());
         }
         // Tiles that arrived early add where they overlap (in the order of
         // their ids; for display only).
+        let (mine, _) = out[start..].as_chunks_mut::<16>();
         for t in self.pending.values() {
             let o = t.pixel_bounds.intersect(&b);
             if o.is_empty() {
@@ -300,14 +314,13 @@ impl Film {
             for y in o.min.y..o.max.y {
                 let row = Point2i::new(o.min.x, y);
                 let (s, d) = (t.pixel_bounds.offset(row), b.offset(row));
-                for (d, p) in out[d..d + m].iter_mut().zip(&t.pixels[s..s + m]) {
+                for (d, p) in mine[d..d + m].iter_mut().zip(&t.pixels[s..s + m]) {
                     let f = |k: usize| f32::from_le_bytes([d[k], d[k + 1], d[k + 2], d[k + 3]]);
                     let [r, g, bl] = p.contrib;
                     *d = le_bytes([f(0) + r, f(4) + g, f(8) + bl, f(12) + p.weight]);
                 }
             }
         }
-        out.into_flattened()
     }
 
     /// The image: weighted sums divided by weights, clamped at zero, times

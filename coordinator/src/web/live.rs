@@ -119,7 +119,7 @@ pub fn running(film: &Film, from: usize, merged: u32) -> Vec<u8> {
     out.reserve(area(&regions) * 16 + area(&errors) * 4);
     for r in regions {
         piece_header(&mut out, r, PIXELS);
-        out.extend_from_slice(&film.region_sums(shift(r, b.min.x, b.min.y)));
+        film.write_region_sums(shift(r, b.min.x, b.min.y), &mut out);
     }
     for r in errors {
         piece_header(&mut out, r, ERROR);
