@@ -5,6 +5,7 @@
 
 use crate::embedded::{self, SubmitOptions};
 use crate::error::Error;
+use farm_common::math;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -312,10 +313,10 @@ pub fn cpu_ratio_geomean(rows: &[BenchRow]) -> Option<f64> {
         .filter_map(|r| {
             let m = r.measured.as_ref().ok()?;
             let p = r.scene.pbrt.as_ref()?;
-            (p.cpu > 0.0 && m.cpu > 0.0).then(|| (m.cpu / p.cpu).ln())
+            (p.cpu > 0.0 && m.cpu > 0.0).then(|| math::ln(m.cpu / p.cpu))
         })
         .collect();
-    (!logs.is_empty()).then(|| (logs.iter().sum::<f64>() / logs.len() as f64).exp())
+    (!logs.is_empty()).then(|| math::exp(logs.iter().sum::<f64>() / logs.len() as f64))
 }
 
 #[cfg(test)]

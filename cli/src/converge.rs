@@ -7,6 +7,7 @@ use crate::error::Error;
 use farm_common::image as metrics;
 
 use crate::embedded::{self, SubmitOptions};
+use farm_common::math;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
@@ -175,7 +176,7 @@ impl Convergence {
         let all = measured.iter().chain(&estimated);
         let decades = |vals: &mut dyn Iterator<Item = f64>| {
             let (lo, hi) = vals.fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), v| {
-                (lo.min(v.log10()), hi.max(v.log10()))
+                (lo.min(math::log10(v)), hi.max(math::log10(v)))
             });
             if lo.is_finite() {
                 (lo.floor(), hi.ceil().max(lo.floor() + 1.0))
@@ -185,8 +186,8 @@ impl Convergence {
         };
         let (x0, x1) = decades(&mut all.clone().map(|p| p.0));
         let (y0, y1) = decades(&mut all.map(|p| p.1));
-        let px = |x: f64| margin + (x.log10() - x0) / (x1 - x0) * (w - 2.0 * margin);
-        let py = |y: f64| h - margin - (y.log10() - y0) / (y1 - y0) * (h - 2.0 * margin);
+        let px = |x: f64| margin + (math::log10(x) - x0) / (x1 - x0) * (w - 2.0 * margin);
+        let py = |y: f64| h - margin - (math::log10(y) - y0) / (y1 - y0) * (h - 2.0 * margin);
         let mut s = String::new();
         let _ = writeln!(
             s,

@@ -11,6 +11,7 @@ pub use cie_data::{
     N_CIE_SAMPLES,
 };
 
+use crate::math;
 use crate::spectrum::Spectrum;
 
 /// The wavelength (nm) of CIE sample `i` (pbrt-v3 `CIE_lambda[i]`).
@@ -77,7 +78,7 @@ pub fn blackbody(lambda: &[f32], temperature: f32) -> Vec<f32> {
         .map(|&l_nm| {
             let l = l_nm * 1e-9;
             let lambda5 = (l * l) * (l * l) * l;
-            (2.0 * h * c * c) / (lambda5 * (((h * c) / (l * kb * temperature)).exp() - 1.0))
+            (2.0 * h * c * c) / (lambda5 * (math::exp((h * c) / (l * kb * temperature)) - 1.0))
         })
         .collect()
 }

@@ -2,6 +2,7 @@
 //! were). Sampled and blackbody spectra are converted to RGB once, when the
 //! scene is parsed, through the CIE matching functions (see `cie`).
 
+use crate::math;
 use serde::{Deserialize, Serialize};
 use std::ops::{Add, AddAssign, Div, Index, Mul, MulAssign, Sub};
 
@@ -80,7 +81,7 @@ impl Spectrum {
     /// Channel-wise `exp`.
     #[inline]
     pub fn exp(self) -> Spectrum {
-        self.map(f32::exp)
+        self.map(math::exp)
     }
     /// Clamp every channel to `[lo, hi]`.
     #[inline]

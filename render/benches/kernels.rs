@@ -9,6 +9,7 @@
 use divan::counter::ItemsCount;
 use divan::{black_box, Bencher};
 use farm_common::geometry::{Bounds2i, Bounds3f, Mat4, Point2i, Ray, Transform, Vec2, Vec3};
+use farm_common::math;
 use farm_common::rng::Rng;
 use farm_common::scene::{Entity, FileLoc, MaterialEntity, Param, ParamValue, Params};
 use farm_render::accel::Bvh;
@@ -242,8 +243,8 @@ mod bvh {
             for j in 0..n {
                 let (u, v) = (i as f32 / n as f32, j as f32 / n as f32);
                 let (phi, theta) = (u * std::f32::consts::TAU, v * std::f32::consts::TAU);
-                let dir = Vec3::new(phi.cos(), phi.sin(), 0.0);
-                let normal = theta.cos() * dir + theta.sin() * Vec3::Z;
+                let dir = Vec3::new(math::cos(phi), math::sin(phi), 0.0);
+                let normal = math::cos(theta) * dir + math::sin(theta) * Vec3::Z;
                 p.push((big_r * dir + small_r * normal).to_array());
                 nrm.push(normal.to_array());
                 uv.push([u, v]);

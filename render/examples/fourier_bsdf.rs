@@ -9,6 +9,7 @@
 //! cargo run --release -p farm-render --example fourier_bsdf -- scenes/parity/bsdfs
 //! ```
 
+use farm_common::math;
 use farm_render::bxdf::FourierTable;
 use std::f64::consts::PI;
 use std::path::PathBuf;
@@ -33,7 +34,7 @@ fn bessel_series(z: f64, tol: f64, max: usize) -> Vec<f64> {
         let mut s = 0.0;
         for j in 0..steps {
             let phi = PI * (j as f64 + 0.5) / steps as f64;
-            s += (z * (phi.cos() - 1.0)).exp() * (k as f64 * phi).cos();
+            s += math::exp(z * (math::cos(phi) - 1.0)) * math::cos(k as f64 * phi);
         }
         let ak = s / steps as f64 * if k == 0 { 1.0 } else { 2.0 };
         if k > 0 && ak.abs() < tol * a[0] {
@@ -55,8 +56,8 @@ impl Layered {
         let (so, si) = ((1.0 - mo * mo).max(0.0).sqrt(), (1.0 - mi * mi).max(0.0).sqrt());
         // cos γ = sᵢsₒ cos φ − μᵢμₒ; exp(κ(cos γ − 1)) = e^{κ(sᵢsₒ − μᵢμₒ − 1)} e^{κsᵢsₒ(cos φ − 1)}.
         let z = self.kappa * si * so;
-        let outer = (self.kappa * (si * so - mi * mo - 1.0)).exp();
-        let norm = self.ks * self.kappa / (2.0 * PI * (1.0 - (-2.0 * self.kappa).exp()));
+        let outer = math::exp(self.kappa * (si * so - mi * mo - 1.0));
+        let norm = self.ks * self.kappa / (2.0 * PI * (1.0 - math::exp(-2.0 * self.kappa)));
         let lobe: Vec<f64> = bessel_series(z, 1e-4, 64).iter().map(|a| a * outer * norm).collect();
         let mut out = Vec::with_capacity(channels * lobe.len());
         for kd in &self.kd {
@@ -70,7 +71,8 @@ impl Layered {
 
     fn write(&self, n: usize, eta: f32) -> Vec<u8> {
         // Chebyshev–Lobatto nodes, dense at the poles as layerlab's are.
-        let mu: Vec<f32> = (0..n).map(|j| -(PI * j as f64 / (n - 1) as f64).cos() as f32).collect();
+        let mu: Vec<f32> =
+            (0..n).map(|j| -math::cos(PI * j as f64 / (n - 1) as f64) as f32).collect();
         let mut all = Vec::with_capacity(n * n);
         for &mo in &mu {
             for &mi in &mu {

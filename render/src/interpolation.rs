@@ -4,6 +4,7 @@
 //! evaluating and sampling a cosine series in φ.
 
 use crate::sampling::find_interval;
+use farm_common::math;
 use std::f64::consts::PI;
 
 /// Most Newton/bisection steps the samplers take. pbrt-v3 loops until it
@@ -189,7 +190,7 @@ pub fn sample_fourier(ak: &[f32], recip: &[f32], m: usize, u: f32) -> FourierSam
     let (mut big_f, mut f);
     let mut steps = 0;
     loop {
-        let cos_phi = phi.cos();
+        let cos_phi = math::cos(phi);
         let sin_phi = (1.0 - cos_phi * cos_phi).max(0.0).sqrt();
         let (mut cos_prev, mut cos_cur) = (cos_phi, 1.0f64);
         let (mut sin_prev, mut sin_cur) = (-sin_phi, 0.0f64);
@@ -254,7 +255,7 @@ mod tests {
     fn catmull_rom_is_exact_for_lines_inside() {
         // Interior segments reproduce a linear function exactly (the
         // finite-difference slopes of a line are its slope).
-        let nodes: Vec<f32> = (0..9).map(|i| (i as f32 / 8.0).powf(1.3)).collect();
+        let nodes: Vec<f32> = (0..9).map(|i| math::powf(i as f32 / 8.0, 1.3)).collect();
         let line = |x: f32| 0.25 + 2.0 * x;
         for k in 0..100 {
             let x = k as f32 / 99.0;
@@ -273,8 +274,8 @@ mod tests {
         for k in 0..50 {
             let phi = k as f64 * 0.13;
             let direct: f64 =
-                a.iter().enumerate().map(|(i, &c)| c as f64 * (i as f64 * phi).cos()).sum();
-            assert!((fourier(&a, 4, phi.cos()) as f64 - direct).abs() < 1e-6);
+                a.iter().enumerate().map(|(i, &c)| c as f64 * math::cos(i as f64 * phi)).sum();
+            assert!((fourier(&a, 4, math::cos(phi)) as f64 - direct).abs() < 1e-6);
         }
         assert_eq!(fourier(&a, 0, 0.3), 0.0);
     }
@@ -284,12 +285,13 @@ mod tests {
         // f(φ) = 1 + 0.8 cos φ + 0.1 cos 2φ: the CDF at the sample is u.
         let a = [1.0f32, 0.8, 0.1];
         let recip = [f32::INFINITY, 1.0, 0.5];
-        let cdf = |phi: f64| (phi + 0.8 * phi.sin() + 0.05 * (2.0 * phi).sin()) / (2.0 * PI);
+        let cdf =
+            |phi: f64| (phi + 0.8 * math::sin(phi) + 0.05 * math::sin(2.0 * phi)) / (2.0 * PI);
         for k in 0..64 {
             let u = (k as f32 + 0.5) / 64.0;
             let s = sample_fourier(&a, &recip, 3, u);
             assert!((cdf(s.phi as f64) - u as f64).abs() < 1e-5, "u {u}: φ {}", s.phi);
-            let f = fourier(&a, 3, (s.phi as f64).cos());
+            let f = fourier(&a, 3, math::cos(s.phi as f64));
             assert!((s.f - f).abs() < 1e-5);
             assert!((s.pdf - f / (2.0 * PI as f32)).abs() < 1e-5);
         }

@@ -1,6 +1,7 @@
 //! Warping uniform samples to distributions (pbrt-v3 `core/sampling.h`).
 
 use farm_common::geometry::{Vec2, Vec3};
+use farm_common::math;
 use std::f32::consts::{FRAC_PI_2, FRAC_PI_4, PI};
 
 /// A point on the unit disk by Shirley–Chiu's concentric mapping.
@@ -15,7 +16,7 @@ pub fn concentric_sample_disk(u: Vec2) -> Vec2 {
     } else {
         (o.y, FRAC_PI_2 - FRAC_PI_4 * (o.x / o.y))
     };
-    r * Vec2::new(theta.cos(), theta.sin())
+    r * Vec2::new(math::cos(theta), math::sin(theta))
 }
 
 /// A direction in the +z hemisphere with density cos θ / π.
@@ -38,7 +39,7 @@ pub fn uniform_sample_hemisphere(u: Vec2) -> Vec3 {
     let z = u.x;
     let r = (1.0 - z * z).max(0.0).sqrt();
     let phi = 2.0 * PI * u.y;
-    Vec3::new(r * phi.cos(), r * phi.sin(), z)
+    Vec3::new(r * math::cos(phi), r * math::sin(phi), z)
 }
 
 /// Density of [`uniform_sample_hemisphere`].
@@ -53,7 +54,7 @@ pub fn uniform_sample_sphere(u: Vec2) -> Vec3 {
     let z = 1.0 - 2.0 * u.x;
     let r = (1.0 - z * z).max(0.0).sqrt();
     let phi = 2.0 * PI * u.y;
-    Vec3::new(r * phi.cos(), r * phi.sin(), z)
+    Vec3::new(r * math::cos(phi), r * math::sin(phi), z)
 }
 
 /// Density of [`uniform_sample_sphere`].
@@ -69,7 +70,7 @@ pub fn uniform_sample_cone(u: Vec2, cos_theta_max: f32) -> Vec3 {
     let cos_theta = (1.0 - u.x) + u.x * cos_theta_max;
     let sin_theta = (1.0 - cos_theta * cos_theta).max(0.0).sqrt();
     let phi = u.y * 2.0 * PI;
-    Vec3::new(phi.cos() * sin_theta, phi.sin() * sin_theta, cos_theta)
+    Vec3::new(math::cos(phi) * sin_theta, math::sin(phi) * sin_theta, cos_theta)
 }
 
 /// Density of [`uniform_sample_cone`].

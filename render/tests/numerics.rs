@@ -5,6 +5,7 @@
 //! `numerics_motion.rs`.
 
 use farm_common::geometry::{DVec3, Mat4, Ray, Transform, Vec3};
+use farm_common::math;
 use farm_common::rng::Rng;
 use farm_common::scene::{FileLoc, Param, ParamSet, ParamValue, Params, Warning};
 use farm_render::primitive::{Aggregate, Primitive};
@@ -61,7 +62,11 @@ fn closed_mesh(rng: &mut Rng, rings: usize, segs: usize) -> (Vec<[f32; 3]>, Vec<
         for j in 0..segs {
             let phi = 2.0 * std::f32::consts::PI * j as f32 / segs as f32;
             let r = 0.8 + 0.4 * rng.uniform_f32();
-            p.push([r * theta.sin() * phi.cos(), r * theta.sin() * phi.sin(), r * theta.cos()]);
+            p.push([
+                r * math::sin(theta) * math::cos(phi),
+                r * math::sin(theta) * math::sin(phi),
+                r * math::cos(theta),
+            ]);
         }
     }
     let v = |i: usize, j: usize| (2 + i * segs + j % segs) as i32;
@@ -205,8 +210,8 @@ fn needle_triangles_and_grazing_rays_match_double_precision() {
             let (tx, ty) = farm_common::geometry::coordinate_system(n);
             let phi = std::f32::consts::TAU * rng.uniform_f32();
             let elev = graze * (0.5 + rng.uniform_f32());
-            let along = tx * phi.cos() + ty * phi.sin();
-            let dir = (along * elev.cos() + n * elev.sin()).normalize();
+            let along = tx * math::cos(phi) + ty * math::sin(phi);
+            let dir = (along * math::cos(elev) + n * math::sin(elev)).normalize();
             let o = target + dir * (0.5 + 2.0 * rng.uniform_f32());
             let ray = Ray::new(o, -dir, 0.0);
             let rd = [rp[0].as_dvec3(), rp[1].as_dvec3(), rp[2].as_dvec3()];
@@ -272,7 +277,7 @@ fn in_plane_parallel_and_degenerate_triangles_are_never_hit() {
         // Through the interior, within the plane z = 0.
         let target = Vec3::new(0.2 + 0.3 * rng.uniform_f32(), 0.1 + 0.2 * rng.uniform_f32(), 0.0);
         let phi = std::f32::consts::TAU * rng.uniform_f32();
-        let d = Vec3::new(phi.cos(), phi.sin(), 0.0);
+        let d = Vec3::new(math::cos(phi), math::sin(phi), 0.0);
         let in_plane = Ray::new(target - 2.0 * d, d, 0.0);
         assert!(tri[0].intersect(&in_plane).is_none() && !tri[0].intersect_p(&in_plane));
         // Parallel to the plane just above it, and along the edges.
@@ -389,7 +394,7 @@ fn distant_rays_hit_spheres_where_the_naive_quadratic_fails() {
             let (tx, ty) = farm_common::geometry::coordinate_system(w);
             let a = std::f32::consts::TAU * rng.uniform_f32();
             let r = 0.9 * radius * rng.uniform_f32().sqrt();
-            let aim = center + r * (a.cos() * tx + a.sin() * ty);
+            let aim = center + r * (math::cos(a) * tx + math::sin(a) * ty);
             let ray = Ray::new(o, aim - o, 0.0);
             let (t0, _) =
                 sphere_f64(center.as_dvec3(), radius as f64, o.as_dvec3(), ray.d.as_dvec3())

@@ -8,6 +8,7 @@
 //! Transform [ 1 0 0 0  0 1 0 0  0 0 1 0  0 0 0 1 ]   # column-major
 //! ```
 
+use farm_common::math;
 use glam::{DMat4, DVec3, DVec4};
 
 /// pbrt-v3 `Translate(delta)`.
@@ -24,7 +25,7 @@ pub fn scale(x: f64, y: f64, z: f64) -> DMat4 {
 /// with pbrt-v3's element formulas.
 pub fn rotate(theta_deg: f64, axis: DVec3) -> DMat4 {
     let a = axis.normalize();
-    let (sin, cos) = theta_deg.to_radians().sin_cos();
+    let (sin, cos) = math::sin_cos(theta_deg.to_radians());
     // Rows of pbrt-v3's matrix m[i][j].
     let m = [
         [

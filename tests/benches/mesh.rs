@@ -7,6 +7,7 @@
 //! N·log₂N, nanoseconds per ray, peak RSS and bytes per triangle.
 
 use farm_cli::bench::Measured;
+use farm_common::math;
 use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -20,11 +21,11 @@ fn write_sphere(path: &Path, rings: usize, segments: usize) -> usize {
         for j in 0..segments {
             let phi = std::f32::consts::TAU * j as f32 / segments as f32;
             // A little relief so the BVH is not built over a perfect sphere.
-            let r = 1.0 + 0.02 * ((7.0 * theta).sin() * (5.0 * phi).cos());
+            let r = 1.0 + 0.02 * (math::sin(7.0 * theta) * math::cos(5.0 * phi));
             verts.extend([
-                r * theta.sin() * phi.cos(),
-                r * theta.cos(),
-                r * theta.sin() * phi.sin(),
+                r * math::sin(theta) * math::cos(phi),
+                r * math::cos(theta),
+                r * math::sin(theta) * math::sin(phi),
             ]);
         }
     }
@@ -118,7 +119,7 @@ fn main() {
             continue;
         };
         let (startup, rays_per_s, rss) = (m.startup, m.rays_per_second, m.peak_rss_mb);
-        let log_n = (tris as f64).log2();
+        let log_n = math::log2(tris as f64);
         let ns_per_ray = 1e9 / rays_per_s;
         let bytes_per_tri = match base {
             Some((rss0, tris0)) if tris > tris0 => (rss - rss0) * 1048576.0 / (tris - tris0) as f64,

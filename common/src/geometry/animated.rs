@@ -9,6 +9,7 @@ use super::interval::{interval_find_zeros, Interval};
 use super::quaternion::{from_rows, rotation_rows, rows, slerp, Quaternion};
 use super::ray::{Ray, RayDifferential};
 use super::transform::Transform;
+use crate::math;
 use glam::{Mat3, Mat4, Vec3};
 
 /// A transform interpolated between two keyframes at two times. Outside
@@ -89,7 +90,7 @@ impl Motion {
             r1 = -r1;
         }
         let cos_theta = r0.dot(&r1);
-        let theta = cos_theta.clamp(-1.0, 1.0).acos();
+        let theta = math::acos(cos_theta.clamp(-1.0, 1.0));
         // pbrt-v3 bounds the motion by the two end boxes when the rotations
         // are within 0.9995 of each other (about 3.6°), but even a small turn
         // carries points along an arc that bulges out of those boxes (by

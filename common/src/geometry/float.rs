@@ -1,3 +1,4 @@
+use crate::math;
 use glam::Vec3;
 
 /// Half of f32's ulp at one: pbrt-v3's `MachineEpsilon`.
@@ -88,7 +89,7 @@ pub fn spherical_direction(
     y: Vec3,
     z: Vec3,
 ) -> Vec3 {
-    sin_theta * phi.cos() * x + sin_theta * phi.sin() * y + cos_theta * z
+    sin_theta * math::cos(phi) * x + sin_theta * math::sin(phi) * y + cos_theta * z
 }
 
 #[cfg(test)]

@@ -1,6 +1,7 @@
 //! Interval arithmetic for bounding the motion of animated transforms
 //! (pbrt-v3 `Interval` and `IntervalFindZeros` in `core/transform.cpp`).
 
+use crate::math;
 use std::f32::consts::PI;
 use std::ops::{Add, Mul, Sub};
 
@@ -29,7 +30,7 @@ impl Interval {
     /// Range of `sin` over the interval, which must lie in `[0, 2π]`.
     pub fn sin(self) -> Interval {
         debug_assert!(self.low >= 0.0 && self.high <= 2.0001 * PI);
-        let (mut lo, mut hi) = (self.low.sin(), self.high.sin());
+        let (mut lo, mut hi) = (math::sin(self.low), math::sin(self.high));
         if lo > hi {
             std::mem::swap(&mut lo, &mut hi);
         }
@@ -45,7 +46,7 @@ impl Interval {
     /// Range of `cos` over the interval, which must lie in `[0, 2π]`.
     pub fn cos(self) -> Interval {
         debug_assert!(self.low >= 0.0 && self.high <= 2.0001 * PI);
-        let (mut lo, mut hi) = (self.low.cos(), self.high.cos());
+        let (mut lo, mut hi) = (math::cos(self.low), math::cos(self.high));
         if lo > hi {
             std::mem::swap(&mut lo, &mut hi);
         }
@@ -126,10 +127,10 @@ pub fn interval_find_zeros(
         let mut t = (t_interval.low + t_interval.high) * 0.5;
         for _ in 0..4 {
             let f = c1
-                + (c2 + c3 * t) * (2.0 * theta * t).cos()
-                + (c4 + c5 * t) * (2.0 * theta * t).sin();
-            let f_prime = (c3 + 2.0 * (c4 + c5 * t) * theta) * (2.0 * t * theta).cos()
-                + (c5 - 2.0 * (c2 + c3 * t) * theta) * (2.0 * t * theta).sin();
+                + (c2 + c3 * t) * math::cos(2.0 * theta * t)
+                + (c4 + c5 * t) * math::sin(2.0 * theta * t);
+            let f_prime = (c3 + 2.0 * (c4 + c5 * t) * theta) * math::cos(2.0 * t * theta)
+                + (c5 - 2.0 * (c2 + c3 * t) * theta) * math::sin(2.0 * t * theta);
             if f == 0.0 || f_prime == 0.0 {
                 break;
             }
@@ -158,7 +159,7 @@ mod tests {
         let s = Interval::new(1.0, 5.0).sin();
         assert_eq!((s.low, s.high), (-1.0, 1.0));
         let c = Interval::new(0.2, 1.0).cos();
-        assert!(c.low == 1.0f32.cos() && c.high == 0.2f32.cos());
+        assert!(c.low == math::cos(1.0f32) && c.high == math::cos(0.2f32));
     }
 
     #[test]

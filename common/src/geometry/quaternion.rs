@@ -1,6 +1,7 @@
 //! Quaternions for interpolating rotations (pbrt-v3 `core/quaternion.h`).
 
 use super::transform::Transform;
+use crate::math;
 use glam::{Mat4, Vec3};
 use std::ops::{Add, Mul, Neg, Sub};
 
@@ -197,10 +198,10 @@ pub fn slerp(t: f32, q1: &Quaternion, q2: &Quaternion) -> Quaternion {
     if cos_theta > 0.9995 {
         ((1.0 - t) * *q1 + t * q2).normalize()
     } else {
-        let theta = cos_theta.clamp(-1.0, 1.0).acos();
+        let theta = math::acos(cos_theta.clamp(-1.0, 1.0));
         let thetap = theta * t;
         let qperp = (q2 - *q1 * cos_theta).normalize();
-        *q1 * thetap.cos() + qperp * thetap.sin()
+        *q1 * math::cos(thetap) + qperp * math::sin(thetap)
     }
 }
 
@@ -235,10 +236,14 @@ mod tests {
         let t = Transform::new(Mat4::from_rotation_z(theta));
         let q = Quaternion::from_transform(&t);
         assert!(
-            (q.v.z - (theta / 2.0).sin()).abs() < 1e-6 && (q.w - (theta / 2.0).cos()).abs() < 1e-6
+            (q.v.z - math::sin(theta / 2.0)).abs() < 1e-6
+                && (q.w - math::cos(theta / 2.0)).abs() < 1e-6
         );
         let back = q.to_transform();
-        assert!((back.point(Vec3::X) - Vec3::new(theta.cos(), theta.sin(), 0.0)).length() < 1e-6);
+        assert!(
+            (back.point(Vec3::X) - Vec3::new(math::cos(theta), math::sin(theta), 0.0)).length()
+                < 1e-6
+        );
     }
 
     #[test]

@@ -3,6 +3,7 @@
 //! extension.
 
 use super::{ImageError, ImageMetadata, RgbImage};
+use crate::math;
 use std::path::Path;
 
 fn encode_err(path: &Path, message: String) -> ImageError {
@@ -79,7 +80,7 @@ fn write_pfm(path: &Path, img: &RgbImage) -> Result<(), ImageError> {
 /// sRGB encoding of a linear value clamped to [0, 1].
 fn srgb8(v: f32) -> u8 {
     let v = if v.is_finite() { v.clamp(0.0, 1.0) } else { 0.0 };
-    let s = if v <= 0.003_130_8 { 12.92 * v } else { 1.055 * v.powf(1.0 / 2.4) - 0.055 };
+    let s = if v <= 0.003_130_8 { 12.92 * v } else { 1.055 * math::powf(v, 1.0 / 2.4) - 0.055 };
     (s * 255.0 + 0.5).clamp(0.0, 255.0) as u8
 }
 

@@ -7,6 +7,7 @@
 use super::reflection::{abs_cos_theta, reflect, same_hemisphere};
 use super::{cosine_pdf, cosine_sample, BxDFSample, BxDFType};
 use farm_common::geometry::{Vec2, Vec3};
+use farm_common::math;
 use farm_common::Spectrum;
 use std::f32::consts::{FRAC_1_PI, PI};
 
@@ -35,7 +36,7 @@ pub fn schlick_r0_from_eta(eta: f32) -> f32 {
 #[inline]
 fn spherical_direction(sin_theta: f32, cos_theta: f32, phi: f32) -> Vec3 {
     let s = sin_theta.clamp(-1.0, 1.0);
-    Vec3::new(s * phi.cos(), s * phi.sin(), cos_theta.clamp(-1.0, 1.0))
+    Vec3::new(s * math::cos(phi), s * math::sin(phi), cos_theta.clamp(-1.0, 1.0))
 }
 
 /// The half vector of `wo` and `wi`, or `None` when they cancel.
@@ -150,7 +151,7 @@ impl DisneySheen {
 #[inline]
 fn gtr1(cos_theta: f32, alpha: f32) -> f32 {
     let a2 = alpha * alpha;
-    (a2 - 1.0) / (PI * a2.ln() * (1.0 + (a2 - 1.0) * cos_theta * cos_theta))
+    (a2 - 1.0) / (PI * math::ln(a2) * (1.0 + (a2 - 1.0) * cos_theta * cos_theta))
 }
 
 /// The separable Smith GGX masking term, written as in pbrt-v3 (its
@@ -189,7 +190,7 @@ impl DisneyClearcoat {
             return None;
         }
         let a2 = self.gloss * self.gloss;
-        let cos_theta = ((1.0 - a2.powf(1.0 - u.x)) / (1.0 - a2)).max(0.0).sqrt();
+        let cos_theta = ((1.0 - math::powf(a2, 1.0 - u.x)) / (1.0 - a2)).max(0.0).sqrt();
         let sin_theta = (1.0 - cos_theta * cos_theta).max(0.0).sqrt();
         let mut wh = spherical_direction(sin_theta, cos_theta, 2.0 * PI * u.y);
         if !same_hemisphere(wo, wh) {

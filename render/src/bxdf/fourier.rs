@@ -8,6 +8,7 @@ use super::reflection::{cos_theta, sin2_theta};
 use super::{BxDFSample, BxDFType, TransportMode};
 use crate::interpolation::{catmull_rom_weights, fourier, sample_catmull_rom_2d, sample_fourier};
 use farm_common::geometry::{Vec2, Vec3};
+use farm_common::math;
 use farm_common::Spectrum;
 use std::cell::RefCell;
 
@@ -296,7 +297,7 @@ impl FourierBsdf<'_> {
             if norm.is_infinite() {
                 norm = 0.0;
             }
-            let (sin_phi, cos_phi) = phi.phi.sin_cos();
+            let (sin_phi, cos_phi) = math::sin_cos(phi.phi);
             let wi = -Vec3::new(
                 norm * (cos_phi * wo.x - sin_phi * wo.y),
                 norm * (sin_phi * wo.x + cos_phi * wo.y),

@@ -1,9 +1,10 @@
 use super::*;
+use farm_common::math;
 use std::f32::consts::PI;
 
 /// Chebyshev–Lobatto nodes on [−1, 1], denser at the poles, like layerlab's.
 fn nodes(n: usize) -> Vec<f32> {
-    (0..n).map(|j| -(std::f32::consts::PI * j as f32 / (n - 1) as f32).cos()).collect()
+    (0..n).map(|j| -math::cos(std::f32::consts::PI * j as f32 / (n - 1) as f32)).collect()
 }
 
 /// A table whose pair (o, i) holds `series(μo, μi)` in each channel.
@@ -26,7 +27,11 @@ fn lambert(kd: f32) -> Vec<u8> {
 }
 
 fn dir(theta: f32, phi: f32) -> Vec3 {
-    Vec3::new(theta.sin() * phi.cos(), theta.sin() * phi.sin(), theta.cos())
+    Vec3::new(
+        math::sin(theta) * math::cos(phi),
+        math::sin(theta) * math::sin(phi),
+        math::cos(theta),
+    )
 }
 
 #[test]
@@ -67,9 +72,9 @@ fn at_nodes_f_is_the_series_over_mu_i() {
             let wo = Vec3::new((1.0 - mo * mo).sqrt(), 0.0, mo);
             // −wi has zenith cosine μi and azimuth φ from wo.
             let s = (1.0 - mi * mi).sqrt();
-            let wi = -Vec3::new(s * phi.cos(), s * phi.sin(), mi);
+            let wi = -Vec3::new(s * math::cos(phi), s * math::sin(phi), mi);
             let a = series(mo, mi);
-            let sum = a[0] + a[1] * phi.cos() + a[2] * (2.0 * phi).cos();
+            let sum = a[0] + a[1] * math::cos(phi) + a[2] * math::cos(2.0 * phi);
             let mut expect = sum.max(0.0) / mi.abs();
             if mi * mo > 0.0 {
                 expect *= if mi > 0.0 { 1.0 / (1.5 * 1.5) } else { 1.5 * 1.5 };
@@ -116,8 +121,8 @@ fn glossy() -> FourierTable {
                 let mut s = 0.0;
                 for j in 0..steps {
                     let phi = PI * (j as f32 + 0.5) / steps as f32;
-                    let g = (kappa * (si * so * phi.cos() - mi * mo - 1.0)).exp();
-                    s += g * (k as f32 * phi).cos();
+                    let g = math::exp(kappa * (si * so * math::cos(phi) - mi * mo - 1.0));
+                    s += g * math::cos(k as f32 * phi);
                 }
                 let ak = s / steps as f32 * if k == 0 { 1.0 } else { 2.0 };
                 0.5 * mi.abs() * (if k == 0 { 0.2 } else { 0.0 } + ak)
@@ -141,7 +146,7 @@ fn samples_carry_the_pdf_of_their_direction_and_it_integrates_to_one() {
             for j in 0..np {
                 let phi = 2.0 * PI * (j as f32 + 0.5) / np as f32;
                 let s = (1.0 - z * z).sqrt();
-                total += b.pdf(wo, Vec3::new(s * phi.cos(), s * phi.sin(), z));
+                total += b.pdf(wo, Vec3::new(s * math::cos(phi), s * math::sin(phi), z));
             }
         }
         total *= 4.0 * PI / (nt * np) as f32;

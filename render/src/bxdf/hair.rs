@@ -7,6 +7,7 @@
 use super::reflection::abs_cos_theta;
 use super::{fr_dielectric, BxDFSample, BxDFType};
 use farm_common::geometry::{Vec2, Vec3};
+use farm_common::math;
 use farm_common::Spectrum;
 use std::f32::consts::PI;
 
@@ -38,7 +39,7 @@ fn safe_sqrt(x: f32) -> f32 {
 }
 
 fn safe_asin(x: f32) -> f32 {
-    x.clamp(-1.0, 1.0).asin()
+    math::asin(x.clamp(-1.0, 1.0))
 }
 
 /// The modified Bessel function I0, by pbrt-v3's ten-term series.
@@ -57,9 +58,9 @@ fn i0(x: f32) -> f32 {
 
 fn log_i0(x: f32) -> f32 {
     if x > 12.0 {
-        x + 0.5 * (-(2.0 * PI).ln() + (1.0 / x).ln() + 1.0 / (8.0 * x))
+        x + 0.5 * (-math::ln(2.0 * PI) + math::ln(1.0 / x) + 1.0 / (8.0 * x))
     } else {
-        i0(x).ln()
+        math::ln(i0(x))
     }
 }
 
@@ -68,9 +69,9 @@ fn mp(cos_i: f32, cos_o: f32, sin_i: f32, sin_o: f32, v: f32) -> f32 {
     let a = cos_i * cos_o / v;
     let b = sin_i * sin_o / v;
     if v <= 0.1 {
-        (log_i0(a) - b - 1.0 / v + PBRT_LN_2 + (1.0 / (2.0 * v)).ln()).exp()
+        math::exp(log_i0(a) - b - 1.0 / v + PBRT_LN_2 + math::ln(1.0 / (2.0 * v)))
     } else {
-        ((-b).exp() * i0(a)) / ((1.0 / v).sinh() * 2.0 * v)
+        (math::exp(-b) * i0(a)) / (math::sinh(1.0 / v) * 2.0 * v)
     }
 }
 
@@ -94,11 +95,11 @@ fn phi(p: usize, gamma_o: f32, gamma_t: f32) -> f32 {
 
 fn logistic(x: f32, s: f32) -> f32 {
     let x = x.abs();
-    (-x / s).exp() / (s * sqr(1.0 + (-x / s).exp()))
+    math::exp(-x / s) / (s * sqr(1.0 + math::exp(-x / s)))
 }
 
 fn logistic_cdf(x: f32, s: f32) -> f32 {
-    1.0 / (1.0 + (-x / s).exp())
+    1.0 / (1.0 + math::exp(-x / s))
 }
 
 fn trimmed_logistic(x: f32, s: f32, a: f32, b: f32) -> f32 {
@@ -139,7 +140,7 @@ impl HairBsdf {
         let s = SQRT_PI_OVER_8 * (0.265 * beta_n + 1.194 * sqr(beta_n) + 5.372 * pow_n(beta_n, 22));
         let mut sin_2k_alpha = [0.0; 3];
         let mut cos_2k_alpha = [0.0; 3];
-        sin_2k_alpha[0] = alpha.to_radians().sin();
+        sin_2k_alpha[0] = math::sin(alpha.to_radians());
         cos_2k_alpha[0] = safe_sqrt(1.0 - sqr(sin_2k_alpha[0]));
         for i in 1..3 {
             sin_2k_alpha[i] = 2.0 * cos_2k_alpha[i - 1] * sin_2k_alpha[i - 1];
@@ -152,10 +153,10 @@ impl HairBsdf {
     pub fn f(&self, wo: Vec3, wi: Vec3) -> Spectrum {
         let sin_o = wo.x;
         let cos_o = safe_sqrt(1.0 - sqr(sin_o));
-        let phi_o = wo.z.atan2(wo.y);
+        let phi_o = math::atan2(wo.z, wo.y);
         let sin_i = wi.x;
         let cos_i = safe_sqrt(1.0 - sqr(sin_i));
-        let phi_i = wi.z.atan2(wi.y);
+        let phi_i = math::atan2(wi.z, wi.y);
         let sin_t = sin_o / self.eta;
         let cos_t = safe_sqrt(1.0 - sqr(sin_t));
         let etap = (self.eta * self.eta - sqr(sin_o)).sqrt() / cos_o;
@@ -213,7 +214,7 @@ impl HairBsdf {
         let d = 5.969 - 0.215 * beta_n + 2.532 * sqr(beta_n) - 10.73 * pow_n(beta_n, 3)
             + 5.574 * pow_n(beta_n, 4)
             + 0.245 * pow_n(beta_n, 5);
-        let f = |x: f32| sqr(x.ln() / d);
+        let f = |x: f32| sqr(math::ln(x) / d);
         Spectrum::new(f(c.r), f(c.g), f(c.b))
     }
 }

@@ -7,6 +7,7 @@ use super::reflection::{
     tan2_theta, tan_theta,
 };
 use farm_common::geometry::{Vec2, Vec3};
+use farm_common::math;
 use std::f32::consts::PI;
 
 /// Which microfacet normal distribution.
@@ -36,7 +37,7 @@ pub struct MicrofacetDistribution {
 
 /// pbrt-v3's perceptual roughness → α mapping (shared by both distributions).
 pub fn roughness_to_alpha(roughness: f32) -> f32 {
-    let x = roughness.max(1e-3).ln();
+    let x = math::ln(roughness.max(1e-3));
     1.62142 + 0.819955 * x + 0.1734 * x * x + 0.0171201 * x * x * x + 0.000640711 * x * x * x * x
 }
 
@@ -78,7 +79,7 @@ impl MicrofacetDistribution {
         let (ax, ay) = (self.alpha_x, self.alpha_y);
         match self.kind {
             DistributionKind::Beckmann => {
-                (-tan2 * (cos2_phi(wh) / (ax * ax) + sin2_phi(wh) / (ay * ay))).exp()
+                math::exp(-tan2 * (cos2_phi(wh) / (ax * ax) + sin2_phi(wh) / (ay * ay)))
                     / (PI * ax * ay * cos4)
             }
             DistributionKind::TrowbridgeReitz => {
@@ -146,25 +147,25 @@ impl MicrofacetDistribution {
         let (tan2, phi) = if ax == ay {
             let t = match self.kind {
                 DistributionKind::TrowbridgeReitz => ax * ax * u.x / (1.0 - u.x),
-                DistributionKind::Beckmann => -ax * ax * (1.0 - u.x).ln(),
+                DistributionKind::Beckmann => -ax * ax * math::ln(1.0 - u.x),
             };
             (t, u.y * 2.0 * PI)
         } else {
-            let mut phi = (ay / ax * (2.0 * PI * u.y + 0.5 * PI).tan()).atan();
+            let mut phi = math::atan(ay / ax * math::tan(2.0 * PI * u.y + 0.5 * PI));
             if u.y > 0.5 {
                 phi += PI;
             }
-            let (sp, cp) = phi.sin_cos();
+            let (sp, cp) = math::sin_cos(phi);
             let inv = cp * cp / (ax * ax) + sp * sp / (ay * ay);
             let t = match self.kind {
                 DistributionKind::TrowbridgeReitz => (1.0 / inv) * u.x / (1.0 - u.x),
-                DistributionKind::Beckmann => -(1.0 - u.x).ln() / inv,
+                DistributionKind::Beckmann => -math::ln(1.0 - u.x) / inv,
             };
             (t, phi)
         };
         let cos_t = 1.0 / (1.0 + tan2).sqrt();
         let sin_t = (1.0 - cos_t * cos_t).max(0.0).sqrt();
-        let wh = Vec3::new(sin_t * phi.cos(), sin_t * phi.sin(), cos_t);
+        let wh = Vec3::new(sin_t * math::cos(phi), sin_t * math::sin(phi), cos_t);
         if same_hemisphere(wo, wh) {
             wh
         } else {
@@ -204,7 +205,7 @@ fn trowbridge_reitz_sample11(cos_theta: f32, u1: f32, u2: f32) -> (f32, f32) {
     if cos_theta > 0.9999 {
         let r = (u1 / (1.0 - u1)).sqrt();
         let phi = std::f32::consts::TAU * u2;
-        return (r * phi.cos(), r * phi.sin());
+        return (r * math::cos(phi), r * math::sin(phi));
     }
     let sin_theta = (1.0 - cos_theta * cos_theta).max(0.0).sqrt();
     let tan_theta = sin_theta / cos_theta;
@@ -227,8 +228,8 @@ fn trowbridge_reitz_sample11(cos_theta: f32, u1: f32, u2: f32) -> (f32, f32) {
 
 fn beckmann_sample11(cos_theta_i: f32, u1: f32, u2: f32) -> (f32, f32) {
     if cos_theta_i > 0.9999 {
-        let r = (-(1.0 - u1).ln()).sqrt();
-        let (s, c) = (2.0 * PI * u2).sin_cos();
+        let r = (-math::ln(1.0 - u1)).sqrt();
+        let (s, c) = math::sin_cos(2.0 * PI * u2);
         return (r * c, r * s);
     }
     let sin_theta_i = (1.0 - cos_theta_i * cos_theta_i).max(0.0).sqrt();
@@ -238,12 +239,12 @@ fn beckmann_sample11(cos_theta_i: f32, u1: f32, u2: f32) -> (f32, f32) {
     let mut a = -1.0f32;
     let mut c = erf(cot_theta_i);
     let sample_x = u1.max(1e-6);
-    let theta_i = cos_theta_i.acos();
+    let theta_i = math::acos(cos_theta_i);
     let fit = 1.0 + theta_i * (-0.876 + theta_i * (0.4265 - 0.0594 * theta_i));
-    let mut b = c - (1.0 + c) * (1.0 - sample_x).powf(fit);
+    let mut b = c - (1.0 + c) * math::powf(1.0 - sample_x, fit);
     let sqrt_pi_inv = 1.0 / PI.sqrt();
     let normalization =
-        1.0 / (1.0 + c + sqrt_pi_inv * tan_theta_i * (-cot_theta_i * cot_theta_i).exp());
+        1.0 / (1.0 + c + sqrt_pi_inv * tan_theta_i * math::exp(-cot_theta_i * cot_theta_i));
     let mut it = 0;
     loop {
         it += 1;
@@ -255,7 +256,7 @@ fn beckmann_sample11(cos_theta_i: f32, u1: f32, u2: f32) -> (f32, f32) {
         }
         let inv_erf = erf_inv(b);
         let value = normalization
-            * (1.0 + b + sqrt_pi_inv * tan_theta_i * (-inv_erf * inv_erf).exp())
+            * (1.0 + b + sqrt_pi_inv * tan_theta_i * math::exp(-inv_erf * inv_erf))
             - sample_x;
         let derivative = normalization * (1.0 - inv_erf * tan_theta_i);
         if value.abs() < 1e-5 {
@@ -274,7 +275,7 @@ fn beckmann_sample11(cos_theta_i: f32, u1: f32, u2: f32) -> (f32, f32) {
 /// pbrt-v3's polynomial approximation of erf⁻¹.
 pub fn erf_inv(x: f32) -> f32 {
     let x = x.clamp(-0.99999, 0.99999);
-    let mut w = -((1.0 - x) * (1.0 + x)).ln();
+    let mut w = -math::ln((1.0 - x) * (1.0 + x));
     let mut p;
     if w < 5.0 {
         w -= 2.5;
@@ -309,7 +310,7 @@ pub fn erf(x: f32) -> f32 {
     let sign = if x < 0.0 { -1.0 } else { 1.0 };
     let x = x.abs();
     let t = 1.0 / (1.0 + p * x);
-    let y = 1.0 - (((((a5 * t + a4) * t) + a3) * t + a2) * t + a1) * t * (-x * x).exp();
+    let y = 1.0 - (((((a5 * t + a4) * t) + a3) * t + a2) * t + a1) * t * math::exp(-x * x);
     sign * y
 }
 
@@ -322,7 +323,7 @@ mod tests {
         let z = 1.0 - 2.0 * u.x;
         let r = (1.0 - z * z).max(0.0).sqrt();
         let phi = 2.0 * PI * u.y;
-        Vec3::new(r * phi.cos(), r * phi.sin(), z)
+        Vec3::new(r * math::cos(phi), r * math::sin(phi), z)
     }
 
     #[test]

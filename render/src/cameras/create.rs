@@ -101,6 +101,7 @@ mod tests {
     use super::*;
     use crate::sampling::CameraSample;
     use farm_common::geometry::{Bounds2i, Mat4, Point2i, Transform, Vec2, Vec3};
+    use farm_common::math;
     use farm_common::scene::{FileLoc, Param, ParamValue};
 
     fn film(w: i32, h: i32) -> FilmGeometry {
@@ -190,7 +191,7 @@ mod tests {
         // halffov 22.5 is a 45° field of view.
         let (_, r) =
             c.generate_ray(&CameraSample { p_film: Vec2::new(0.0, 4.0), ..Default::default() });
-        assert!((r.d.x / r.d.z + 22.5f32.to_radians().tan()).abs() < 1e-5);
+        assert!((r.d.x / r.d.z + math::tan(22.5f32.to_radians())).abs() < 1e-5);
 
         let mut w = Vec::new();
         let e = entity(

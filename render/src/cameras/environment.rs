@@ -5,6 +5,7 @@
 use super::projective::Common;
 use crate::sampling::CameraSample;
 use farm_common::geometry::{AnimatedTransform, Point2i, Ray, RayDifferential, Vec3};
+use farm_common::math;
 use std::f32::consts::PI;
 
 /// A camera seeing the whole sphere of directions.
@@ -43,8 +44,8 @@ impl EnvironmentCamera {
     pub fn generate_ray(&self, s: &CameraSample) -> (f32, Ray) {
         let theta = PI * s.p_film.y / self.resolution.1;
         let phi = 2.0 * PI * s.p_film.x / self.resolution.0;
-        let (sin_theta, cos_theta) = theta.sin_cos();
-        let (sin_phi, cos_phi) = phi.sin_cos();
+        let (sin_theta, cos_theta) = math::sin_cos(theta);
+        let (sin_phi, cos_phi) = math::sin_cos(phi);
         let d = Vec3::new(sin_theta * cos_phi, cos_theta, sin_theta * sin_phi);
         let u = s.time;
         let time = (1.0 - u) * self.shutter_open + u * self.shutter_close;

@@ -9,6 +9,7 @@ use crate::sampling::CameraSample;
 use farm_common::geometry::{
     AnimatedTransform, Bounds2f, Mat4, Point2i, Ray, RayDifferential, Transform, Vec3, Vec4,
 };
+use farm_common::math;
 use farm_common::scene::Params;
 
 /// A pinhole or thin-lens camera with perspective projection.
@@ -31,7 +32,7 @@ pub fn perspective(fov: f32, n: f32, f: f32) -> Transform {
         Vec4::new(0.0, 0.0, f / (f - n), 1.0),
         Vec4::new(0.0, 0.0, -f * n / (f - n), 0.0),
     );
-    let inv_tan_ang = 1.0 / (fov.to_radians() / 2.0).tan();
+    let inv_tan_ang = 1.0 / math::tan(fov.to_radians() / 2.0);
     scale(inv_tan_ang, inv_tan_ang, 1.0).compose(&Transform::new(persp))
 }
 
@@ -174,10 +175,10 @@ mod tests {
         let c = camera(id.clone(), 0.0, 90.0, Point2i::new(32, 32));
         let (_, r) = c.generate_ray(&sample(0.0, 0.0));
         // Raster y runs down, camera y up: the top-left corner is at (-1, 1, 1).
-        assert!((r.d.x.atan2(r.d.z).to_degrees() + 45.0).abs() < 1e-4, "{:?}", r.d);
-        assert!((r.d.y.atan2(r.d.z).to_degrees() - 45.0).abs() < 1e-4, "{:?}", r.d);
+        assert!((math::atan2(r.d.x, r.d.z).to_degrees() + 45.0).abs() < 1e-4, "{:?}", r.d);
+        assert!((math::atan2(r.d.y, r.d.z).to_degrees() - 45.0).abs() < 1e-4, "{:?}", r.d);
         let c = camera(id, 0.0, 60.0, Point2i::new(64, 32));
-        let t = 30.0f32.to_radians().tan();
+        let t = math::tan(30.0f32.to_radians());
         let (_, r) = c.generate_ray(&sample(0.0, 16.0));
         assert!((r.d.x / r.d.z + 2.0 * t).abs() < 1e-5 && r.d.y.abs() < 1e-6);
         let (_, r) = c.generate_ray(&sample(32.0, 32.0));

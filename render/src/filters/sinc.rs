@@ -2,6 +2,7 @@
 //! `PixelFilter "sinc" "float xwidth" [4] "float ywidth" [4] "float tau" [3]`.
 
 use farm_common::geometry::Vec2;
+use farm_common::math;
 use std::f32::consts::PI;
 
 /// A sinc windowed by a wider sinc (Lanczos), zero beyond the radius.
@@ -17,7 +18,7 @@ fn sinc(x: f32) -> f32 {
     if x < 1e-5 {
         return 1.0;
     }
-    (PI * x).sin() / (PI * x)
+    math::sin(PI * x) / (PI * x)
 }
 
 impl LanczosSincFilter {

@@ -3,6 +3,7 @@
 //! or EWA (elliptically weighted average with a Gaussian weight table).
 
 use farm_common::geometry::Vec2;
+use farm_common::math;
 use farm_common::Spectrum;
 use std::ops::{Add, Mul};
 
@@ -80,7 +81,7 @@ fn lanczos(x: f32) -> f32 {
         return 0.0;
     }
     let x = x * std::f32::consts::PI;
-    ((x * tau).sin() / (x * tau)) * (x.sin() / x)
+    (math::sin(x * tau) / (x * tau)) * (math::sin(x) / x)
 }
 
 /// For each texel of the new resolution, the first source texel and four weights.
@@ -193,7 +194,7 @@ impl<T: Texel> MipMap<T> {
         for (i, w) in mip.weight_lut.iter_mut().enumerate() {
             let alpha = 2.0f32;
             let r2 = i as f32 / (WEIGHT_LUT_SIZE - 1) as f32;
-            *w = (-alpha * r2).exp() - (-alpha).exp();
+            *w = math::exp(-alpha * r2) - math::exp(-alpha);
         }
         mip
     }
@@ -235,7 +236,7 @@ impl<T: Texel> MipMap<T> {
     /// Trilinear lookup for a square filter of `width` in [0, 1] texture space.
     pub fn lookup(&self, st: Vec2, width: f32) -> T {
         let n = self.levels();
-        let level = (n - 1) as f32 + width.max(1e-8).log2();
+        let level = (n - 1) as f32 + math::log2(width.max(1e-8));
         if level < 0.0 {
             self.triangle(0, st)
         } else if level >= (n - 1) as f32 {
@@ -270,7 +271,7 @@ impl<T: Texel> MipMap<T> {
         if minor == 0.0 {
             return self.triangle(0, st);
         }
-        let lod = ((self.levels() as f32 - 1.0) + minor.log2()).max(0.0);
+        let lod = ((self.levels() as f32 - 1.0) + math::log2(minor)).max(0.0);
         let il = lod.floor();
         let d = lod - il;
         let il = il as usize;

@@ -1,6 +1,7 @@
 //! Image maps: pbrt-v3's MIP maps for filtered lookups (`core/mipmap.h`)
 //! over images decoded by `farm_common::image`.
 
+use farm_common::math;
 mod mipmap;
 
 pub use farm_common::image::{read_image, ImageError, RgbImage};
@@ -12,7 +13,7 @@ pub fn inverse_gamma_correct(v: f32) -> f32 {
     if v <= 0.04045 {
         v * (1.0 / 12.92)
     } else {
-        ((v + 0.055) * (1.0 / 1.055)).powf(2.4)
+        math::powf((v + 0.055) * (1.0 / 1.055), 2.4)
     }
 }
 

@@ -7,6 +7,7 @@ use crate::image::{MipMap, WrapMode};
 use crate::interaction::Interaction;
 use crate::sampling::Distribution2D;
 use farm_common::geometry::{Ray, Transform, Vec2, Vec3};
+use farm_common::math;
 use farm_common::scene::{Entity, Params, Warning};
 use farm_common::Spectrum;
 use std::collections::BTreeMap;
@@ -43,7 +44,7 @@ impl InfiniteLight {
         let mut img = vec![0.0f32; w * h];
         for v in 0..h {
             let vp = (v as f32 + 0.5) / h as f32;
-            let sin_theta = (PI * (v as f32 + 0.5) / h as f32).sin();
+            let sin_theta = math::sin(PI * (v as f32 + 0.5) / h as f32);
             for u in 0..w {
                 let up = (u as f32 + 0.5) / w as f32;
                 img[v * w + u] = lmap.lookup(Vec2::new(up, vp), filter_width).y() * sin_theta;
@@ -83,8 +84,8 @@ impl InfiniteLight {
         }
         let theta = uv.y * PI;
         let phi = uv.x * 2.0 * PI;
-        let (sin_theta, cos_theta) = theta.sin_cos();
-        let (sin_phi, cos_phi) = phi.sin_cos();
+        let (sin_theta, cos_theta) = math::sin_cos(theta);
+        let (sin_phi, cos_phi) = math::sin_cos(phi);
         let wi = self.render_from_light.vector(Vec3::new(
             sin_theta * cos_phi,
             sin_theta * sin_phi,
@@ -110,13 +111,13 @@ impl InfiniteLight {
 /// θ of a unit vector, in [0, π].
 #[inline]
 pub(super) fn spherical_theta(v: Vec3) -> f32 {
-    v.z.clamp(-1.0, 1.0).acos()
+    math::acos(v.z.clamp(-1.0, 1.0))
 }
 
 /// φ of a vector, in [0, 2π).
 #[inline]
 pub(super) fn spherical_phi(v: Vec3) -> f32 {
-    let p = v.y.atan2(v.x);
+    let p = math::atan2(v.y, v.x);
     if p < 0.0 {
         p + 2.0 * PI
     } else {

@@ -4,6 +4,7 @@
 use super::LightSample;
 use crate::interaction::Interaction;
 use farm_common::geometry::{coordinate_system, Mat4, Transform, Vec3, Vec4};
+use farm_common::math;
 use farm_common::scene::Params;
 use farm_common::Spectrum;
 
@@ -77,8 +78,8 @@ impl SpotLight {
             p: t.point(Vec3::ZERO),
             light_from_render: t.inverse(),
             i,
-            cos_total_width: cone.to_radians().cos(),
-            cos_falloff_start: (cone - delta).to_radians().cos(),
+            cos_total_width: math::cos(cone.to_radians()),
+            cos_falloff_start: math::cos((cone - delta).to_radians()),
         }
     }
 }

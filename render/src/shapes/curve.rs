@@ -7,6 +7,7 @@
 use super::efloat::Placement;
 use crate::interaction::SurfaceInteraction;
 use farm_common::geometry::{coordinate_system, Bounds3f, Ray, Vec2, Vec3};
+use farm_common::math;
 use std::sync::Arc;
 
 /// How the curve's surface is oriented.
@@ -52,8 +53,8 @@ impl CurveCommon {
         let (mut n, mut normal_angle, mut inv_sin_normal_angle) = ([Vec3::ZERO; 2], 0.0, 0.0);
         if let Some(nn) = norm {
             n = [nn[0].normalize(), nn[1].normalize()];
-            normal_angle = n[0].dot(n[1]).clamp(0.0, 1.0).acos();
-            inv_sin_normal_angle = 1.0 / normal_angle.sin();
+            normal_angle = math::acos(n[0].dot(n[1]).clamp(0.0, 1.0));
+            inv_sin_normal_angle = 1.0 / math::sin(normal_angle);
         }
         CurveCommon {
             kind,
@@ -142,7 +143,7 @@ impl RayFrame {
 /// pbrt-v3 `Rotate(theta_degrees, axis)` applied to `v`.
 fn rotate(theta_deg: f32, axis: Vec3, v: Vec3) -> Vec3 {
     let a = axis.normalize();
-    let (s, c) = theta_deg.to_radians().sin_cos();
+    let (s, c) = math::sin_cos(theta_deg.to_radians());
     let r0 = Vec3::new(
         a.x * a.x + (1.0 - a.x * a.x) * c,
         a.x * a.y * (1.0 - c) - a.z * s,
@@ -316,8 +317,8 @@ impl Curve {
             n_hit = if c.normal_angle == 0.0 {
                 c.n[0]
             } else {
-                let sin0 = ((1.0 - u) * c.normal_angle).sin() * c.inv_sin_normal_angle;
-                let sin1 = (u * c.normal_angle).sin() * c.inv_sin_normal_angle;
+                let sin0 = math::sin((1.0 - u) * c.normal_angle) * c.inv_sin_normal_angle;
+                let sin1 = math::sin(u * c.normal_angle) * c.inv_sin_normal_angle;
                 sin0 * c.n[0] + sin1 * c.n[1]
             };
             hit_width *= n_hit.dot(ray.d).abs() / ray_length;

@@ -4,6 +4,7 @@
 use super::efloat::{nearest_hit, phi_of, quadratic, weingarten, EFloat, Placement};
 use crate::interaction::{Interaction, SurfaceInteraction};
 use farm_common::geometry::{gamma, Bounds3f, Ray, Vec2, Vec3};
+use farm_common::math;
 use farm_common::scene::Params;
 
 /// A cylinder of `radius` between `z_min` and `z_max`, open at both ends.
@@ -113,7 +114,7 @@ impl Cylinder {
     pub fn sample_area(&self, u: Vec2) -> (Interaction, f32) {
         let z = (1.0 - u.x) * self.z_min + u.x * self.z_max;
         let phi = u.y * self.phi_max;
-        let mut p_obj = Vec3::new(self.radius * phi.cos(), self.radius * phi.sin(), z);
+        let mut p_obj = Vec3::new(self.radius * math::cos(phi), self.radius * math::sin(phi), z);
         let pl = &self.placement;
         let mut n = pl.render_from_object.normal(Vec3::new(p_obj.x, p_obj.y, 0.0)).normalize();
         if pl.reverse_orientation {

@@ -5,6 +5,7 @@ use crate::interaction::SurfaceInteraction;
 use farm_common::geometry::{
     next_float_down, next_float_up, Bounds3f, Ray, Transform, Vec3, MACHINE_EPSILON,
 };
+use farm_common::math;
 use std::ops::{Add, Div, Mul, Neg, Sub};
 
 /// A float with a conservative interval `[low, high]` around its true value.
@@ -210,7 +211,7 @@ pub(crate) fn nearest_hit<H>(
 /// φ in [0, 2π) from `atan2(y, x)`.
 #[inline]
 pub(crate) fn phi_of(y: f32, x: f32) -> f32 {
-    let phi = y.atan2(x);
+    let phi = math::atan2(y, x);
     if phi < 0.0 {
         phi + 2.0 * std::f32::consts::PI
     } else {

@@ -6,6 +6,7 @@ use super::efloat::{
 };
 use crate::interaction::SurfaceInteraction;
 use farm_common::geometry::{Bounds3f, Ray, Vec2, Vec3};
+use farm_common::math;
 use farm_common::scene::{Params, Warning};
 
 /// The surface swept by rotating segment `p1`–`p2` about z.
@@ -122,7 +123,7 @@ impl Hyperboloid {
         let (ray, o, d, t, (p, phi, v)) = self.hit(r)?;
         let u = phi / self.phi_max;
         let (p1, p2) = (self.p1, self.p2);
-        let (sin_phi, cos_phi) = phi.sin_cos();
+        let (sin_phi, cos_phi) = math::sin_cos(phi);
         let dpdu = Vec3::new(-self.phi_max * p.y, self.phi_max * p.x, 0.0);
         let dpdv = Vec3::new(
             (p2.x - p1.x) * cos_phi - (p2.y - p1.y) * sin_phi,

@@ -6,6 +6,7 @@
 use super::mesh::{build_mesh, warn, MeshData};
 use super::{Placement, Shape};
 use farm_common::geometry::Vec3;
+use farm_common::math;
 use farm_common::scene::{Params, Warning};
 use std::collections::HashMap;
 use std::f32::consts::PI;
@@ -273,8 +274,8 @@ pub fn loop_subdivide(levels: u32, indices: &[u32], p: &[Vec3]) -> Result<LimitM
         if !lv.verts[vi].boundary {
             for (j, &q) in ring.iter().enumerate().take(valence) {
                 let a = 2.0 * PI * j as f32 / valence as f32;
-                s += a.cos() * q;
-                t += a.sin() * q;
+                s += math::cos(a) * q;
+                t += math::sin(a) * q;
             }
         } else {
             s = ring[valence - 1] - ring[0];
@@ -284,9 +285,9 @@ pub fn loop_subdivide(levels: u32, indices: &[u32], p: &[Vec3]) -> Result<LimitM
                 4 => -ring[0] + 2.0 * ring[1] + 2.0 * ring[2] - ring[3] - 2.0 * vp,
                 _ => {
                     let theta = PI / (valence - 1) as f32;
-                    let mut t = theta.sin() * (ring[0] + ring[valence - 1]);
+                    let mut t = math::sin(theta) * (ring[0] + ring[valence - 1]);
                     for (k, &q) in ring.iter().enumerate().take(valence - 1).skip(1) {
-                        t += (2.0 * theta.cos() - 2.0) * (k as f32 * theta).sin() * q;
+                        t += (2.0 * math::cos(theta) - 2.0) * math::sin(k as f32 * theta) * q;
                     }
                     -t
                 }

@@ -6,6 +6,7 @@ use super::efloat::{
 };
 use crate::interaction::SurfaceInteraction;
 use farm_common::geometry::{Bounds3f, Ray, Vec2, Vec3};
+use farm_common::math;
 use farm_common::scene::Params;
 
 /// The paraboloid `z = zmax (x² + y²) / radius²`, clipped in z and φ.
@@ -108,6 +109,6 @@ impl Paraboloid {
         let radius2 = self.radius * self.radius;
         let k = 4.0 * self.z_max / radius2;
         (radius2 * radius2 * self.phi_max / (12.0 * self.z_max * self.z_max))
-            * ((k * self.z_max + 1.0).powf(1.5) - (k * self.z_min + 1.0).powf(1.5))
+            * (math::powf(k * self.z_max + 1.0, 1.5) - math::powf(k * self.z_min + 1.0, 1.5))
     }
 }

@@ -9,6 +9,7 @@ use crate::sampling::uniform_sample_sphere;
 use farm_common::geometry::{
     coordinate_system, gamma, offset_ray_origin, spherical_direction, Bounds3f, Ray, Vec2, Vec3,
 };
+use farm_common::math;
 use farm_common::scene::Params;
 use std::f32::consts::PI;
 
@@ -57,8 +58,8 @@ impl Sphere {
             radius,
             z_min: lo.clamp(-radius, radius),
             z_max: hi.clamp(-radius, radius),
-            theta_min: (lo / radius).clamp(-1.0, 1.0).acos(),
-            theta_max: (hi / radius).clamp(-1.0, 1.0).acos(),
+            theta_min: math::acos((lo / radius).clamp(-1.0, 1.0)),
+            theta_max: math::acos((hi / radius).clamp(-1.0, 1.0)),
             phi_max: phi_max_deg.clamp(0.0, 360.0).to_radians(),
         }
     }
@@ -153,13 +154,14 @@ impl Sphere {
     pub fn intersect(&self, r: &Ray) -> Option<(f32, SurfaceInteraction)> {
         let (ray, t, (p, phi)) = self.hit(r)?;
         let u = phi / self.phi_max;
-        let theta = (p.z / self.radius).clamp(-1.0, 1.0).acos();
+        let theta = math::acos((p.z / self.radius).clamp(-1.0, 1.0));
         let dtheta = self.theta_max - self.theta_min;
         let v = (theta - self.theta_min) / dtheta;
         let inv_z_radius = 1.0 / (p.x * p.x + p.y * p.y).sqrt();
         let (cos_phi, sin_phi) = (p.x * inv_z_radius, p.y * inv_z_radius);
         let dpdu = Vec3::new(-self.phi_max * p.y, self.phi_max * p.x, 0.0);
-        let dpdv = dtheta * Vec3::new(p.z * cos_phi, p.z * sin_phi, -self.radius * theta.sin());
+        let dpdv =
+            dtheta * Vec3::new(p.z * cos_phi, p.z * sin_phi, -self.radius * math::sin(theta));
         let d2pduu = -self.phi_max * self.phi_max * Vec3::new(p.x, p.y, 0.0);
         let d2pduv = dtheta * p.z * self.phi_max * Vec3::new(-sin_phi, cos_phi, 0.0);
         let d2pdvv = -dtheta * dtheta * p;

@@ -5,6 +5,7 @@
 use super::mapping::Mapping3D;
 use super::noise::{fbm, turbulence};
 use crate::interaction::SurfaceInteraction;
+use farm_common::math;
 use farm_common::Spectrum;
 
 /// Fractional Brownian motion.
@@ -98,7 +99,7 @@ impl Marble {
         let p = p * self.scale;
         let marble = p.y
             + self.variation * fbm(p, self.scale * dx, self.scale * dy, self.omega, self.octaves);
-        marble_spline(0.5 + 0.5 * marble.sin())
+        marble_spline(0.5 + 0.5 * math::sin(marble))
     }
 }
 

@@ -4,6 +4,7 @@
 
 use crate::interaction::SurfaceInteraction;
 use farm_common::geometry::{Transform, Vec2, Vec3};
+use farm_common::math;
 use farm_common::scene::{FileLoc, Params, Warning};
 use std::f32::consts::PI;
 
@@ -59,8 +60,8 @@ pub enum Mapping2D {
 
 fn sphere(xf: &Transform, p: Vec3) -> Vec2 {
     let v = xf.point(p).normalize();
-    let theta = v.z.clamp(-1.0, 1.0).acos();
-    let mut phi = v.y.atan2(v.x);
+    let theta = math::acos(v.z.clamp(-1.0, 1.0));
+    let mut phi = math::atan2(v.y, v.x);
     if phi < 0.0 {
         phi += 2.0 * PI;
     }
@@ -69,7 +70,7 @@ fn sphere(xf: &Transform, p: Vec3) -> Vec2 {
 
 fn cylinder(xf: &Transform, p: Vec3) -> Vec2 {
     let v = xf.point(p).normalize();
-    Vec2::new((PI + v.y.atan2(v.x)) * (1.0 / (2.0 * PI)), v.z)
+    Vec2::new((PI + math::atan2(v.y, v.x)) * (1.0 / (2.0 * PI)), v.z)
 }
 
 /// pbrt-v3's fix-up of the t derivative across the mapping's seam.

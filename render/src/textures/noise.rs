@@ -2,6 +2,7 @@
 //! (`core/texture.cpp`).
 
 use farm_common::geometry::Vec3;
+use farm_common::math;
 
 #[rustfmt::skip]
 const NOISE_PERM: [u8; 256] = [
@@ -76,7 +77,7 @@ fn smooth_step(min: f32, max: f32, value: f32) -> f32 {
 
 fn octaves(dpdx: Vec3, dpdy: Vec3, max_octaves: i32) -> f32 {
     let len2 = dpdx.length_squared().max(dpdy.length_squared());
-    (-1.0 - 0.5 * len2.log2()).clamp(0.0, max_octaves as f32)
+    (-1.0 - 0.5 * math::log2(len2)).clamp(0.0, max_octaves as f32)
 }
 
 /// Antialiased fractional Brownian motion.

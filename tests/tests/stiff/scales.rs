@@ -2,6 +2,7 @@
 //! lit planes at grazing angles.
 
 use super::*;
+use farm_common::math;
 
 /// A small still life: a ground mesh, a plastic sphere, a glass sphere and a
 /// box mesh, lit by a distant and a point light.
@@ -98,8 +99,8 @@ fn lit_ground(f: &Frame, point: bool) -> String {
         let a = DISTANT_DEG.to_radians();
         format!(
             "LightSource \"distant\" \"point from\" [0 {} {}] \"point to\" [0 0 0]",
-            num(a.cos()),
-            num(a.sin())
+            num(math::cos(a)),
+            num(math::sin(a))
         )
     };
     let g = GROUND;
@@ -135,7 +136,7 @@ fn expected_ground(x: usize, y: usize, point: bool) -> Option<f64> {
     let right = DVec3::Y.cross(dir).normalize();
     let up = dir.cross(right);
     let (w, h) = (ACNE_RES.0 as f64, ACNE_RES.1 as f64);
-    let (frame, tan) = (w / h, (ACNE_FOV.to_radians() / 2.0).tan());
+    let (frame, tan) = (w / h, math::tan(ACNE_FOV.to_radians() / 2.0));
     let sx = -frame + (x as f64 + 0.5) / w * 2.0 * frame;
     let sy = 1.0 - (y as f64 + 0.5) / h * 2.0;
     let d = right * sx * tan + up * sy * tan + dir;
@@ -152,7 +153,7 @@ fn expected_ground(x: usize, y: usize, point: bool) -> Option<f64> {
         let d2 = to_light.length_squared();
         kd_over_pi * (to_light.y / d2.sqrt()) / d2
     } else {
-        kd_over_pi * DISTANT_DEG.to_radians().cos()
+        kd_over_pi * math::cos(DISTANT_DEG.to_radians())
     })
 }
 
