@@ -22,6 +22,8 @@ pub mod scheduler;
 pub mod security;
 /// The coordinator gRPC server.
 pub mod server;
+/// A simulated farm: the scheduler in virtual time with virtual workers.
+pub mod sim;
 /// The journal and blob store in the state directory.
 pub mod state;
 /// The web dashboard and `/metrics`, on the gRPC port.

@@ -3,7 +3,6 @@
 use super::jobs::JobState;
 use super::{Assignment, Outbox, Record, Scheduler};
 use farm_common::ids::{JobId, TileId, WorkerId};
-use std::time::Instant;
 
 impl Scheduler {
     /// Hands out tiles: round-robin over workers with free slots, each
@@ -13,13 +12,20 @@ impl Scheduler {
         if self.ready.is_empty() {
             return;
         }
-        let mut order: Vec<JobId> =
-            self.jobs.values().filter(|j| j.state.is_active()).map(|j| j.id).collect();
+        // Only jobs with tiles to hand out: once the last are out, a result
+        // costs nothing here however many workers wait idle.
+        let mut order: Vec<JobId> = self
+            .jobs
+            .values()
+            .filter(|j| j.state.is_active() && !j.pending.is_empty())
+            .map(|j| j.id)
+            .collect();
         order.sort_by_key(|id| (-self.jobs[id].spec.priority, *id));
         if order.is_empty() {
             return;
         }
         let max_worker = self.config.max_worker_failures;
+        let now = self.now();
         loop {
             let mut assigned = false;
             let ids: Vec<WorkerId> = self.ready.iter().copied().collect();
@@ -55,7 +61,7 @@ impl Scheduler {
                     out.record(Record::HandedOut { job: *jid, tile: TileId(tile), n: attempt + 1 });
                     if j.state == JobState::Queued {
                         j.state = JobState::Running;
-                        j.started = Some(Instant::now());
+                        j.started = Some(now);
                     }
                     let a = Assignment {
                         job: *jid,

@@ -98,7 +98,7 @@ pub(super) struct Job {
 
 impl Job {
     /// A job with no film, no tiles queued and nothing counted yet.
-    pub(super) fn new(id: JobId, spec: JobSpec, state: JobState) -> Job {
+    pub(super) fn new(id: JobId, spec: JobSpec, state: JobState, now: Instant) -> Job {
         Job {
             id,
             spec,
@@ -112,7 +112,7 @@ impl Job {
             stats: RayStats::default(),
             started: None,
             done_tiles: 0,
-            last_progress: Instant::now(),
+            last_progress: now,
             finished: None,
             ended_at: None,
             rel_mse: None,
@@ -162,7 +162,7 @@ impl Scheduler {
         self.next_job += 1;
         let total = spec.geometry.tile_count();
         info!(job = id.0, name = %spec.name, tiles = total, priority = spec.priority, "job queued");
-        let mut job = Job::new(id, spec, JobState::Queued);
+        let mut job = Job::new(id, spec, JobState::Queued, self.now());
         job.film = Some(Film::new(job.spec.geometry.clone()));
         job.pending = (0..total).collect();
         out.record(Record::Submitted { job: id, spec: &job.spec });
@@ -220,6 +220,7 @@ impl Scheduler {
         }
         let (job, tile) = (key.job, key.tile);
         self.release(worker, job, tile.0);
+        let now = self.now();
         let j = self.jobs.get_mut(&job).expect("held tiles belong to known jobs");
         let film = j.film.as_mut().expect("active jobs have a film");
         match film.check(tile, &film_tile) {
@@ -234,7 +235,6 @@ impl Scheduler {
                 }
                 // Progress goes out every 0.5% of the tiles or 100 ms, not per tile.
                 let total = j.spec.geometry.tile_count();
-                let now = Instant::now();
                 let step = (total / 200).max(1);
                 if j.done_tiles == total
                     || j.done_tiles.is_multiple_of(step)
@@ -438,9 +438,10 @@ impl Scheduler {
     }
 
     pub(super) fn finish(&mut self, job: JobId, out: &mut impl Outbox) {
+        let now = self.now();
         let Some(j) = self.jobs.get_mut(&job) else { return };
         let Some(mut film) = j.film.take() else { return };
-        let render_seconds = j.started.map(|s| s.elapsed().as_secs_f64()).unwrap_or(0.0);
+        let render_seconds = j.started.map(|s| now.duration_since(s).as_secs_f64()).unwrap_or(0.0);
         let finished = std::sync::Arc::new(FinishedJob {
             image: film.image(),
             error: film.error_estimate(),

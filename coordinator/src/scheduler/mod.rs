@@ -58,6 +58,9 @@ pub struct Scheduler {
     /// of a result does not grow with the size of the farm.
     ready: BTreeSet<WorkerId>,
     next_job: u64,
+    /// The time, when a simulation drives the scheduler (`None`: the
+    /// clock's).
+    virtual_now: Option<std::time::Instant>,
 }
 
 impl Scheduler {
@@ -69,7 +72,19 @@ impl Scheduler {
             workers: BTreeMap::new(),
             ready: BTreeSet::new(),
             next_job: 1,
+            virtual_now: None,
         }
+    }
+
+    /// From now on the time is `now`, as set here, not the clock's: a
+    /// simulation ([`crate::sim`]) runs the scheduler in virtual time.
+    pub fn set_virtual_time(&mut self, now: std::time::Instant) {
+        self.virtual_now = Some(now);
+    }
+
+    /// The time: the clock's, or the simulation's.
+    pub(crate) fn now(&self) -> std::time::Instant {
+        self.virtual_now.unwrap_or_else(std::time::Instant::now)
     }
 
     /// The film of an active job, as it stands (for live previews).
@@ -84,7 +99,7 @@ impl Scheduler {
 
     /// Jobs and workers for `farm status`: the dashboard's rows, cut down.
     pub fn status(&self) -> (Vec<JobRow>, Vec<WorkerRow>) {
-        let (jobs, workers) = self.views(std::time::Instant::now(), |_| None);
+        let (jobs, workers) = self.views(self.now(), |_| None);
         let jobs = jobs
             .into_iter()
             .map(|j| JobRow {

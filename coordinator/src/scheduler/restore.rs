@@ -5,7 +5,7 @@ use super::jobs::{Job, JobState};
 use super::{Outbox, Scheduler};
 use crate::merge::{Accepted, Film};
 use farm_common::ids::{JobId, TileId};
-use std::time::{Duration, Instant};
+use std::time::Duration;
 use tracing::{info, warn};
 
 impl Scheduler {
@@ -30,7 +30,8 @@ impl Scheduler {
             None if saved.attempts.is_empty() => JobState::Queued,
             None => JobState::Running,
         };
-        let mut job = Job::new(id, saved.spec, state);
+        let now = self.now();
+        let mut job = Job::new(id, saved.spec, state, now);
         job.attempts = saved.attempts.into_iter().collect();
         job.ended_at = saved.ended_at;
         if job.state == JobState::Done {
@@ -54,7 +55,7 @@ impl Scheduler {
             job.pending = (0..total).filter(|t| !film.has(TileId(*t))).collect();
             job.film = Some(film);
             if job.state == JobState::Running {
-                job.started = Some(Instant::now());
+                job.started = Some(now);
             }
             info!(job = id.0, done = job.done_tiles, total, "job resumed");
         }
