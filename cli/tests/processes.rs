@@ -141,7 +141,7 @@ fn sigkill_of_the_coordinator_loses_only_the_tiles_in_flight() {
         j.retries
     );
     assert!(done_at_kill > window, "the kill came too early to tell");
-    assert_eq!(j.attempts, total + j.retries);
+    assert_eq!(j.attempts, total + j.retries + j.speculated);
 
     let embedded_out = dir.join("embedded.pfm");
     let status = farm()

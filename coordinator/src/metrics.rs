@@ -42,6 +42,8 @@ pub struct Metrics {
     pub tiles_merged: Counter,
     /// Hand-outs of a tile after its first.
     pub tiles_retried: Counter,
+    /// Second hand-outs of tiles still out at the end of a job.
+    pub tiles_speculated: Counter,
     /// Tiles a worker could not render, or sent back malformed.
     pub tiles_failed: Counter,
     /// Tiles of active jobs waiting for a worker.
@@ -82,6 +84,12 @@ impl Metrics {
             "tiles_retried",
             "Hand-outs of a tile after its first (lost worker, failure, bad result)",
             tiles_retried.clone(),
+        );
+        let tiles_speculated = Counter::default();
+        r.register(
+            "tiles_speculated",
+            "Second hand-outs of tiles still out once none was left (the first result wins)",
+            tiles_speculated.clone(),
         );
         let tiles_failed = Counter::default();
         r.register(
@@ -125,6 +133,7 @@ impl Metrics {
             tiles_dispatched,
             tiles_merged,
             tiles_retried,
+            tiles_speculated,
             tiles_failed,
             queue_depth,
             workers,

@@ -14,7 +14,9 @@ fn a_small_farm_finishes_the_frame_near_the_ideal_and_the_same_way_twice() {
     let r = simulate(&small(10));
     assert!(r.finished);
     assert_eq!(r.tiles, 40 * 23);
-    assert_eq!(r.handed_out, u64::from(r.tiles), "no tile handed out twice without faults");
+    // Tiles are handed out again only at the end, to idle threads.
+    let again = r.handed_out - u64::from(r.tiles);
+    assert!(again <= 10 * 4, "{again} tiles handed out again");
     let e = r.efficiency();
     assert!(e > 0.8 && e <= 1.0, "efficiency {e}");
     let again = simulate(&small(10));
@@ -32,23 +34,26 @@ fn dead_workers_cost_retries_not_the_frame() {
 }
 
 #[test]
-fn a_straggler_holds_up_the_end_of_the_frame() {
+fn idle_workers_take_over_the_last_tiles_of_stragglers() {
     let plain = simulate(&small(20));
     let slow = simulate(&SimConfig { stragglers: 0.1, ..small(20) });
     assert!(slow.finished);
-    // The last tiles wait on the slow workers: the tail grows.
-    assert!(slow.tail > plain.tail, "{} against {}", slow.tail, plain.tail);
+    // Two of twenty workers run 10× slower: without speculation the frame
+    // waits on their last tiles (a tail of several tile times); with it,
+    // idle workers render those again and the first result wins.
+    let tile = 0.5 / 0.6;
+    assert!(slow.tail < 2.0 * tile, "tail {} s", slow.tail);
+    assert!(slow.makespan < 1.3 * plain.makespan, "{} against {}", slow.makespan, plain.makespan);
 }
 
 #[test]
-fn a_stalled_worker_that_still_answers_heartbeats_stalls_the_frame() {
-    // A known gap (issue 16): no per-tile lease, so a worker that keeps its
-    // session but never returns its tiles holds them forever.
+fn a_stalled_worker_that_still_answers_heartbeats_does_not_hold_up_the_frame() {
+    // It keeps its session but never returns its tiles: once nothing is
+    // left to hand out, idle workers render them again.
     let c =
         SimConfig { stalls: 0.2, seed: 3, give_up_after: Duration::from_secs(3600), ..small(10) };
     let r = simulate(&c);
-    assert!(
-        !r.finished,
-        "the frame finished despite stalled workers: the gap is closed, update this test"
-    );
+    assert!(r.finished);
+    let plain = simulate(&SimConfig { seed: 3, ..small(10) });
+    assert!(r.makespan < 1.5 * plain.makespan, "{} against {}", r.makespan, plain.makespan);
 }

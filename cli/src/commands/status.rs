@@ -63,6 +63,7 @@ pub fn json(s: &GetStatusResponse) -> String {
                 "id": j.job_id, "name": j.name, "owner": j.owner, "state": j.state,
                 "tiles_done": j.tiles_done, "tiles_total": j.tiles_total,
                 "priority": j.priority, "attempts": j.attempts, "retries": j.retries,
+                "speculated": j.speculated,
             })
         })
         .collect();

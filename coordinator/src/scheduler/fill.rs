@@ -22,6 +22,7 @@ impl Scheduler {
             .collect();
         order.sort_by_key(|id| (-self.jobs[id].spec.priority, *id));
         if order.is_empty() {
+            self.speculate(out);
             return;
         }
         let max_worker = self.config.max_worker_failures;
@@ -58,6 +59,7 @@ impl Scheduler {
                         *a - 1
                     };
                     j.in_flight.insert(tile, (wid, attempt));
+                    j.out_order.push_back(tile);
                     out.record(Record::HandedOut { job: *jid, tile: TileId(tile), n: attempt + 1 });
                     if j.state == JobState::Queued {
                         j.state = JobState::Running;
@@ -69,6 +71,7 @@ impl Scheduler {
                         attempt,
                         scene_hash: j.spec.scene_hash.clone(),
                         spp: j.spec.spp_override,
+                        speculative: false,
                     };
                     self.workers.get_mut(&wid).expect("worker").in_flight.insert((*jid, tile));
                     self.refresh_ready(wid);
@@ -79,6 +82,89 @@ impl Scheduler {
             }
             if !assigned {
                 break;
+            }
+        }
+        self.speculate(out);
+    }
+
+    /// Once a job has no tile left to hand out, a worker with a free slot
+    /// renders again the tile out longest that nobody else is rendering
+    /// again, so a slow or stalled worker does not hold up the end of the
+    /// frame. The first result wins ([`Scheduler::tile_done`]); both are
+    /// the same bits. A worker never gets a tile it holds or has failed.
+    fn speculate(&mut self, out: &mut impl Outbox) {
+        if self.ready.is_empty() {
+            return;
+        }
+        let mut order: Vec<JobId> = self
+            .jobs
+            .values()
+            .filter(|j| {
+                j.state.is_active() && j.pending.is_empty() && j.in_flight.len() > j.spares.len()
+            })
+            .map(|j| j.id)
+            .collect();
+        if order.is_empty() {
+            return;
+        }
+        order.sort_by_key(|id| (-self.jobs[id].spec.priority, *id));
+        let max_worker = self.config.max_worker_failures;
+        let ids: Vec<WorkerId> = self.ready.iter().copied().collect();
+        for wid in ids {
+            while self
+                .workers
+                .get(&wid)
+                .is_some_and(|w| (w.in_flight.len() as u32) < w.max_in_flight)
+            {
+                let mut pick = None;
+                for jid in &order {
+                    let j = self.jobs.get_mut(jid).expect("active job");
+                    if j.worker_failures.get(&wid).copied().unwrap_or(0) >= max_worker {
+                        continue;
+                    }
+                    // The oldest hand-out nobody renders again, that this
+                    // worker neither holds nor has failed.
+                    let mut i = 0;
+                    while let Some(&t) = j.out_order.get(i) {
+                        if !j.in_flight.contains_key(&t) || j.spares.contains_key(&t) {
+                            j.out_order.remove(i);
+                            continue;
+                        }
+                        let holder = j.in_flight[&t].0;
+                        let failed_here =
+                            j.failures.get(&t).is_some_and(|f| f.iter().any(|(fw, _)| *fw == wid));
+                        if holder != wid && !failed_here {
+                            j.out_order.remove(i);
+                            pick = Some((*jid, t));
+                            break;
+                        }
+                        i += 1;
+                    }
+                    if pick.is_some() {
+                        break;
+                    }
+                }
+                let Some((jid, tile)) = pick else { break };
+                let j = self.jobs.get_mut(&jid).expect("active job");
+                let attempt = {
+                    let a = j.attempts.entry(tile).or_insert(0);
+                    *a += 1;
+                    *a - 1
+                };
+                j.spares.insert(tile, (wid, attempt));
+                j.speculated += 1;
+                out.record(Record::HandedOut { job: jid, tile: TileId(tile), n: attempt + 1 });
+                let a = Assignment {
+                    job: jid,
+                    tile: TileId(tile),
+                    attempt,
+                    scene_hash: j.spec.scene_hash.clone(),
+                    spp: j.spec.spp_override,
+                    speculative: true,
+                };
+                self.workers.get_mut(&wid).expect("worker").in_flight.insert((jid, tile));
+                self.refresh_ready(wid);
+                out.assign(wid, a);
             }
         }
     }

@@ -82,6 +82,17 @@ pub(super) struct Job {
     pub(super) film: Option<Film>,
     pub(super) pending: VecDeque<u32>,
     pub(super) in_flight: HashMap<u32, (WorkerId, u32)>,
+    /// Tiles in the order they were handed out (some since merged or
+    /// handed out again: those are skipped and dropped when met), so the
+    /// tile out longest is found without a search.
+    pub(super) out_order: VecDeque<u32>,
+    /// A second hand-out of a tile in flight, to an idle worker once no
+    /// tile is left to hand out (speculation): the first result wins, and
+    /// both render the same bits (a tile's samples depend on its index
+    /// only).
+    pub(super) spares: HashMap<u32, (WorkerId, u32)>,
+    /// Spares handed out so far.
+    pub(super) speculated: u32,
     pub(super) attempts: HashMap<u32, u32>,
     pub(super) failures: HashMap<u32, Vec<(WorkerId, String)>>,
     pub(super) worker_failures: HashMap<WorkerId, u32>,
@@ -106,6 +117,9 @@ impl Job {
             film: None,
             pending: VecDeque::new(),
             in_flight: HashMap::new(),
+            out_order: VecDeque::new(),
+            spares: HashMap::new(),
+            speculated: 0,
             attempts: HashMap::new(),
             failures: HashMap::new(),
             worker_failures: HashMap::new(),
@@ -117,6 +131,28 @@ impl Job {
             ended_at: None,
             rel_mse: None,
         }
+    }
+}
+
+impl Job {
+    /// Forgets every hand-out of `tile`; returns their workers.
+    pub(super) fn drop_holders(&mut self, tile: u32) -> Vec<WorkerId> {
+        let spare = self.spares.remove(&tile);
+        self.in_flight.remove(&tile).into_iter().chain(spare).map(|(w, _)| w).collect()
+    }
+
+    /// Forgets `worker`'s hand-out of `tile`; returns whether another
+    /// worker still holds the tile (it becomes the tile's holder).
+    pub(super) fn drop_holder(&mut self, tile: u32, worker: WorkerId) -> bool {
+        if self.spares.get(&tile).is_some_and(|(w, _)| *w == worker) {
+            self.spares.remove(&tile);
+        } else if self.in_flight.get(&tile).is_some_and(|(w, _)| *w == worker) {
+            self.in_flight.remove(&tile);
+            if let Some(spare) = self.spares.remove(&tile) {
+                self.in_flight.insert(tile, spare);
+            }
+        }
+        self.in_flight.contains_key(&tile)
     }
 }
 
@@ -151,8 +187,10 @@ pub struct JobRow {
     pub owner: Owner,
     /// Tile hand-outs so far.
     pub attempts: u32,
-    /// Hand-outs of a tile after its first.
+    /// Hand-outs of a tile after its first, speculation aside.
     pub retries: u32,
+    /// Speculative second hand-outs.
+    pub speculated: u32,
 }
 
 impl Scheduler {
@@ -179,7 +217,9 @@ impl Scheduler {
     /// another worker, or an earlier attempt of it changes nothing.
     fn holds(&self, worker: WorkerId, key: TileAttempt) -> bool {
         self.jobs.get(&key.job).is_some_and(|j| {
-            j.state.is_active() && j.in_flight.get(&key.tile.0) == Some(&(worker, key.attempt))
+            let h = Some(&(worker, key.attempt));
+            j.state.is_active()
+                && (j.in_flight.get(&key.tile.0) == h || j.spares.get(&key.tile.0) == h)
         })
     }
 
@@ -194,6 +234,9 @@ impl Scheduler {
             }
             _ if !self.workers.contains_key(&worker) => {
                 debug!(worker = worker.0, job, tile, "{what} from a lost worker ignored")
+            }
+            Some(j) if j.film.as_ref().is_some_and(|f| f.has(key.tile)) => {
+                debug!(worker = worker.0, job, tile, "{what} for a tile merged from another worker")
             }
             None => warn!(worker = worker.0, job, tile, "{what} for an unknown job refused"),
             Some(_) => warn!(
@@ -227,7 +270,8 @@ impl Scheduler {
             Ok(Accepted::New) => {
                 out.record(Record::Merged { job, tile, film_tile: &film_tile, stats: &stats });
                 film.insert(tile, film_tile);
-                j.in_flight.remove(&tile.0);
+                let complete = film.is_complete();
+                let others = j.drop_holders(tile.0);
                 j.stats.add(&stats);
                 j.done_tiles += 1;
                 if let Some(w) = self.workers.get_mut(&worker) {
@@ -251,13 +295,18 @@ impl Scheduler {
                     };
                     out.notify(job, update);
                 }
-                if film.is_complete() {
+                // The other hand-out of a speculated tile is no longer
+                // needed: its slot is free (its late answer is ignored).
+                for w in others.into_iter().filter(|w| *w != worker) {
+                    self.release(w, job, tile.0);
+                }
+                if complete {
                     self.finish(job, out);
                 }
             }
             Ok(Accepted::Duplicate) => {
                 // A held tile is never in the film; keep the books straight anyway.
-                j.in_flight.remove(&tile.0);
+                j.drop_holders(tile.0);
                 debug!(job = job.0, tile = tile.0, "duplicate tile result ignored")
             }
             Err(e) => {
@@ -386,7 +435,8 @@ impl Scheduler {
     ) {
         let max_tile = self.config.max_tile_failures;
         let Some(j) = self.jobs.get_mut(&job) else { return };
-        j.in_flight.remove(&tile);
+        // Another hand-out of the tile may still be rendering it.
+        let still_held = j.drop_holder(tile, worker);
         let name = self
             .workers
             .get(&worker)
@@ -404,7 +454,7 @@ impl Scheduler {
             let msgs: Vec<String> = fails.iter().map(|(_, m)| m.clone()).collect();
             let reason = format!("tile {tile} failed: {}", msgs.join("; "));
             self.fail(job, reason, out);
-        } else {
+        } else if !still_held {
             j.pending.push_front(tile);
         }
     }
@@ -427,7 +477,10 @@ impl Scheduler {
         out.record(Record::Ended { job, state: &j.state, image: None });
         j.film = None;
         j.pending.clear();
-        let holders: HashSet<WorkerId> = j.in_flight.drain().map(|(_, (w, _))| w).collect();
+        j.out_order.clear();
+        let spares = j.spares.drain().map(|(_, (w, _))| w);
+        let holders: HashSet<WorkerId> =
+            j.in_flight.drain().map(|(_, (w, _))| w).chain(spares).collect();
         for w in holders {
             out.cancel(w, job);
             if let Some(wk) = self.workers.get_mut(&w) {

@@ -112,6 +112,7 @@ impl Scheduler {
                 owner: Owner { id: j.owner_id, name: j.owner },
                 attempts: j.attempts,
                 retries: j.retries,
+                speculated: j.speculated,
             })
             .collect();
         let workers = workers

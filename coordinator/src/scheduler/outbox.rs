@@ -21,6 +21,8 @@ pub struct Assignment {
     pub scene_hash: Vec<u8>,
     /// Samples per pixel override (0 = the scene's).
     pub spp: u32,
+    /// A second hand-out of a tile still out (speculation).
+    pub speculative: bool,
 }
 
 impl Assignment {

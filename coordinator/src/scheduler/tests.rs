@@ -127,7 +127,7 @@ fn many_workers_in_any_order_give_the_same_bits() {
 }
 
 #[test]
-fn a_lost_worker_costs_a_retry_not_the_image() {
+fn a_stalled_worker_costs_a_retry_not_the_image() {
     let reference = reference_image();
     let mut s = Scheduler::new(SchedulerConfig::default());
     let mut out = Recorder::default();
@@ -153,11 +153,12 @@ fn a_lost_worker_costs_a_retry_not_the_image() {
         }
     }
     assert_eq!(held_by_2, 2, "the stalled worker holds its two tiles");
-    assert!(out.image(job).is_none());
+    // Once no tile is left to hand out, the idle worker renders the stalled
+    // one's tiles again (speculation): the image does not wait for the
+    // stalled worker to be declared lost.
+    assert!(out.image(job) == Some(reference.clone()), "image differs");
     s.tick(t0 + Duration::from_secs(10), &mut out);
     assert_eq!(out.disconnected, vec![WorkerId(2)]);
-    drain(&mut s, &mut out, |_| 0);
-    assert!(out.image(job) == Some(reference.clone()), "image differs");
     // A late result from the lost worker changes nothing.
     let late = render(&g, TileId(0));
     let key = TileAttempt { job, tile: TileId(0), attempt: 0 };

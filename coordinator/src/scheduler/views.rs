@@ -45,8 +45,10 @@ pub struct JobView {
     pub workers: u32,
     /// Hand-outs and retries.
     pub attempts: u32,
-    /// Hand-outs of a tile after its first.
+    /// Hand-outs of a tile after its first, speculation aside.
     pub retries: u32,
+    /// Speculative second hand-outs.
+    pub speculated: u32,
 }
 
 /// A worker as the dashboard lists it.
@@ -127,7 +129,13 @@ impl Scheduler {
                     rel_mse: estimate,
                     workers: holders.len() as u32,
                     attempts: j.attempts.values().sum(),
-                    retries: j.attempts.values().map(|a| a.saturating_sub(1)).sum(),
+                    retries: j
+                        .attempts
+                        .values()
+                        .map(|a| a.saturating_sub(1))
+                        .sum::<u32>()
+                        .saturating_sub(j.speculated),
+                    speculated: j.speculated,
                 }
             })
             .collect();

@@ -73,8 +73,9 @@ impl Scheduler {
         lost.sort_unstable();
         for (job, tile) in lost.into_iter().rev() {
             if let Some(j) = self.jobs.get_mut(&job) {
-                if j.in_flight.get(&tile).is_some_and(|(wk, _)| *wk == id) {
-                    j.in_flight.remove(&tile);
+                let held = j.in_flight.get(&tile).is_some_and(|(wk, _)| *wk == id)
+                    || j.spares.get(&tile).is_some_and(|(wk, _)| *wk == id);
+                if held && !j.drop_holder(tile, id) {
                     j.pending.push_front(tile);
                 }
             }

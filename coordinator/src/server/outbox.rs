@@ -84,7 +84,9 @@ impl GrpcOutbox {
 impl Outbox for GrpcOutbox {
     fn assign(&mut self, worker: WorkerId, a: Assignment) {
         self.metrics.tiles_dispatched.inc();
-        if a.attempt > 0 {
+        if a.speculative {
+            self.metrics.tiles_speculated.inc();
+        } else if a.attempt > 0 {
             self.metrics.tiles_retried.inc();
         }
         self.handed.insert(a.key(), Instant::now());

@@ -456,6 +456,7 @@ impl Coordinator for CoordinatorService {
                     owner: j.owner.name,
                     attempts: j.attempts,
                     retries: j.retries,
+                    speculated: j.speculated,
                 })
                 .collect(),
             workers: workers

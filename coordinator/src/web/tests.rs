@@ -27,6 +27,7 @@ fn view(id: u64, owner_id: &str, name: &str) -> JobView {
         workers: 1,
         attempts: 2,
         retries: 0,
+        speculated: 0,
     }
 }
 
