@@ -1,6 +1,6 @@
 //! Handing out tiles.
 
-use super::jobs::JobState;
+use super::job::JobState;
 use super::{Assignment, Outbox, Record, Scheduler};
 use farm_common::ids::{JobId, TileId, WorkerId};
 
@@ -53,29 +53,11 @@ impl Scheduler {
                         continue;
                     };
                     let tile = j.pending.remove(pos).expect("position in range");
-                    let attempt = {
-                        let a = j.attempts.entry(tile).or_insert(0);
-                        *a += 1;
-                        *a - 1
-                    };
-                    j.in_flight.insert(tile, (wid, attempt));
-                    j.out_order.push_back(tile);
-                    out.record(Record::HandedOut { job: *jid, tile: TileId(tile), n: attempt + 1 });
                     if j.state == JobState::Queued {
                         j.state = JobState::Running;
                         j.started = Some(now);
                     }
-                    let a = Assignment {
-                        job: *jid,
-                        tile: TileId(tile),
-                        attempt,
-                        scene_hash: j.spec.scene_hash.clone(),
-                        spp: j.spec.spp_override,
-                        speculative: false,
-                    };
-                    self.workers.get_mut(&wid).expect("worker").in_flight.insert((*jid, tile));
-                    self.refresh_ready(wid);
-                    out.assign(wid, a);
+                    self.hand_out(*jid, tile, wid, false, out);
                     assigned = true;
                     break;
                 }
@@ -145,27 +127,45 @@ impl Scheduler {
                     }
                 }
                 let Some((jid, tile)) = pick else { break };
-                let j = self.jobs.get_mut(&jid).expect("active job");
-                let attempt = {
-                    let a = j.attempts.entry(tile).or_insert(0);
-                    *a += 1;
-                    *a - 1
-                };
-                j.spares.insert(tile, (wid, attempt));
-                j.speculated += 1;
-                out.record(Record::HandedOut { job: jid, tile: TileId(tile), n: attempt + 1 });
-                let a = Assignment {
-                    job: jid,
-                    tile: TileId(tile),
-                    attempt,
-                    scene_hash: j.spec.scene_hash.clone(),
-                    spp: j.spec.spp_override,
-                    speculative: true,
-                };
-                self.workers.get_mut(&wid).expect("worker").in_flight.insert((jid, tile));
-                self.refresh_ready(wid);
-                out.assign(wid, a);
+                self.hand_out(jid, tile, wid, true, out);
             }
         }
+    }
+
+    /// Hands `tile` of `job` to worker `wid`: as the tile's holder, or as
+    /// its spare when `speculative`. Journals it and sends it.
+    fn hand_out(
+        &mut self,
+        job: JobId,
+        tile: u32,
+        wid: WorkerId,
+        speculative: bool,
+        out: &mut impl Outbox,
+    ) {
+        let j = self.jobs.get_mut(&job).expect("active job");
+        let attempt = {
+            let a = j.attempts.entry(tile).or_insert(0);
+            *a += 1;
+            *a - 1
+        };
+        if speculative {
+            j.spares.insert(tile, (wid, attempt));
+            j.speculated += 1;
+        } else {
+            j.in_flight.insert(tile, (wid, attempt));
+            j.out_order.push_back(tile);
+        }
+        out.record(Record::HandedOut { job, tile: TileId(tile), n: attempt + 1 });
+        let a = Assignment {
+            job,
+            tile: TileId(tile),
+            attempt,
+            scene_hash: j.spec.scene_hash.clone(),
+            spp: j.spec.spp_override,
+            speculative,
+        };
+        self.workers.get_mut(&wid).expect("worker").in_flight.insert((job, tile));
+        self.refresh_ready(wid);
+        out.assign(wid, a);
     }
 }

@@ -8,6 +8,7 @@
 //! order of results nor retries change a bit of the image.
 
 mod fill;
+mod job;
 mod jobs;
 mod outbox;
 mod restore;
@@ -16,7 +17,7 @@ mod tests;
 mod views;
 mod workers;
 
-pub use jobs::{JobRow, JobSpec, JobState, Owner, Snapshot};
+pub use job::{JobRow, JobSpec, JobState, Owner, Snapshot};
 pub use outbox::{Assignment, FinishedJob, JobUpdate, Outbox, Record};
 pub use views::{Gauges, JobView, WorkerView};
 pub use workers::WorkerRow;
@@ -52,7 +53,7 @@ impl Default for SchedulerConfig {
 /// The scheduler's state.
 pub struct Scheduler {
     config: SchedulerConfig,
-    jobs: BTreeMap<JobId, jobs::Job>,
+    jobs: BTreeMap<JobId, job::Job>,
     workers: BTreeMap<WorkerId, workers::Worker>,
     /// Workers with a free slot: the only ones `fill` looks at, so the cost
     /// of a result does not grow with the size of the farm.

@@ -1,7 +1,7 @@
 //! The scheduler's way out, and what goes through it: tiles to workers and
 //! updates to a job's watchers.
 
-use super::jobs::{JobSpec, JobState};
+use super::job::{JobSpec, JobState};
 use crate::estimate::ErrorEstimate;
 use farm_common::film::FilmTile;
 use farm_common::ids::{JobId, TileAttempt, TileId, WorkerId};

@@ -1,7 +1,7 @@
 //! Putting jobs back from the journal when the coordinator starts again,
 //! and forgetting them after their retention period.
 
-use super::jobs::{Job, JobState};
+use super::job::{Job, JobState};
 use super::{Outbox, Scheduler};
 use crate::merge::{Accepted, Film};
 use farm_common::ids::{JobId, TileId};

@@ -61,10 +61,7 @@ fn size(f: &FinishedJob) -> usize {
 impl RecentImages {
     /// A page looked at running `job`.
     pub(super) fn looked(&mut self, job: JobId, geometry: &FilmGeometry, now: Instant) {
-        match self.looked.get_mut(&job) {
-            Some(l) => l.0 = now,
-            None => drop(self.looked.insert(job, (now, geometry.clone()))),
-        }
+        self.looked.entry(job).and_modify(|l| l.0 = now).or_insert_with(|| (now, geometry.clone()));
     }
 
     /// `job` finished: keep its image if a page looked at it lately.

@@ -1,0 +1,190 @@
+//! A job and its tiles: what it is (its spec, owner and state), and the
+//! scheduler's books on it (queue, hand-outs, failures, film).
+
+use super::{FinishedJob, JobUpdate};
+use crate::merge::Film;
+use farm_common::film::FilmGeometry;
+use farm_common::ids::{JobId, WorkerId};
+use farm_common::stats::RayStats;
+use std::collections::{HashMap, VecDeque};
+use std::time::Instant;
+
+/// Where a job is in its life.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub enum JobState {
+    /// No tile handed out yet.
+    Queued,
+    /// Tiles are out.
+    Running,
+    /// Image complete.
+    Done,
+    /// Failed, with the reason.
+    Failed(String),
+    /// Cancelled by a client.
+    Cancelled,
+}
+
+impl JobState {
+    /// Lower-case name for listings.
+    pub fn name(&self) -> &'static str {
+        match self {
+            JobState::Queued => "queued",
+            JobState::Running => "running",
+            JobState::Done => "done",
+            JobState::Failed(_) => "failed",
+            JobState::Cancelled => "cancelled",
+        }
+    }
+    pub(super) fn is_active(&self) -> bool {
+        matches!(self, JobState::Queued | JobState::Running)
+    }
+}
+
+/// A job as submitted.
+#[derive(Clone, Debug, serde::Serialize, serde::Deserialize)]
+pub struct JobSpec {
+    /// A name for listings.
+    pub name: String,
+    /// Higher first; ties in submission order.
+    pub priority: i32,
+    /// Hash of the scene manifest.
+    pub scene_hash: Vec<u8>,
+    /// Samples per pixel override (0 = the scene's).
+    pub spp_override: u32,
+    /// Samples per pixel actually used.
+    pub spp: u32,
+    /// The film layout.
+    pub geometry: FilmGeometry,
+    /// Who submitted it.
+    pub owner: Owner,
+    /// Whether it runs on when no client is watching it (`farm submit
+    /// --detach`); otherwise a client gone for longer than the grace
+    /// period cancels it.
+    pub detach: bool,
+    /// The blobs it needs: its manifest and assets (kept while it is).
+    pub blobs: Vec<[u8; 32]>,
+}
+
+/// Who submitted a job: a token's id and name.
+#[derive(Clone, Debug, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+pub struct Owner {
+    /// The token's id.
+    pub id: String,
+    /// The token's name.
+    pub name: String,
+}
+
+pub(super) struct Job {
+    pub(super) id: JobId,
+    pub(super) spec: JobSpec,
+    pub(super) state: JobState,
+    pub(super) film: Option<Film>,
+    pub(super) pending: VecDeque<u32>,
+    pub(super) in_flight: HashMap<u32, (WorkerId, u32)>,
+    /// Tiles in the order they were handed out (some since merged or
+    /// handed out again: those are skipped and dropped when met), so the
+    /// tile out longest is found without a search.
+    pub(super) out_order: VecDeque<u32>,
+    /// A second hand-out of a tile in flight, to an idle worker once no
+    /// tile is left to hand out (speculation): the first result wins, and
+    /// both render the same bits (a tile's samples depend on its index
+    /// only).
+    pub(super) spares: HashMap<u32, (WorkerId, u32)>,
+    /// Spares handed out so far.
+    pub(super) speculated: u32,
+    pub(super) attempts: HashMap<u32, u32>,
+    pub(super) failures: HashMap<u32, Vec<(WorkerId, String)>>,
+    pub(super) worker_failures: HashMap<WorkerId, u32>,
+    pub(super) stats: RayStats,
+    pub(super) started: Option<Instant>,
+    pub(super) done_tiles: u32,
+    pub(super) last_progress: Instant,
+    pub(super) finished: Option<std::sync::Arc<FinishedJob>>,
+    /// When it ended (seconds since the epoch), for its retention.
+    pub(super) ended_at: Option<i64>,
+    /// A finished job's estimate of its own relMSE.
+    pub(super) rel_mse: Option<f64>,
+}
+
+impl Job {
+    /// A job with no film, no tiles queued and nothing counted yet.
+    pub(super) fn new(id: JobId, spec: JobSpec, state: JobState, now: Instant) -> Job {
+        Job {
+            id,
+            spec,
+            state,
+            film: None,
+            pending: VecDeque::new(),
+            in_flight: HashMap::new(),
+            out_order: VecDeque::new(),
+            spares: HashMap::new(),
+            speculated: 0,
+            attempts: HashMap::new(),
+            failures: HashMap::new(),
+            worker_failures: HashMap::new(),
+            stats: RayStats::default(),
+            started: None,
+            done_tiles: 0,
+            last_progress: now,
+            finished: None,
+            ended_at: None,
+            rel_mse: None,
+        }
+    }
+}
+
+impl Job {
+    /// Forgets every hand-out of `tile`; returns their workers.
+    pub(super) fn drop_holders(&mut self, tile: u32) -> Vec<WorkerId> {
+        let spare = self.spares.remove(&tile);
+        self.in_flight.remove(&tile).into_iter().chain(spare).map(|(w, _)| w).collect()
+    }
+
+    /// Forgets `worker`'s hand-out of `tile`; returns whether another
+    /// worker still holds the tile (it becomes the tile's holder).
+    pub(super) fn drop_holder(&mut self, tile: u32, worker: WorkerId) -> bool {
+        if self.spares.get(&tile).is_some_and(|(w, _)| *w == worker) {
+            self.spares.remove(&tile);
+        } else if self.in_flight.get(&tile).is_some_and(|(w, _)| *w == worker) {
+            self.in_flight.remove(&tile);
+            if let Some(spare) = self.spares.remove(&tile) {
+                self.in_flight.insert(tile, spare);
+            }
+        }
+        self.in_flight.contains_key(&tile)
+    }
+}
+
+/// What a new watcher of a job is told first.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Snapshot {
+    /// This update.
+    Update(JobUpdate),
+    /// The job is done and its image is in the journal.
+    Stored,
+}
+
+/// A row of `farm status`.
+#[derive(Clone, Debug, PartialEq)]
+pub struct JobRow {
+    /// Id.
+    pub id: JobId,
+    /// Name.
+    pub name: String,
+    /// State name.
+    pub state: &'static str,
+    /// Tiles in.
+    pub done: u32,
+    /// All tiles.
+    pub total: u32,
+    /// Priority.
+    pub priority: i32,
+    /// Who submitted it.
+    pub owner: Owner,
+    /// Tile hand-outs so far.
+    pub attempts: u32,
+    /// Hand-outs of a tile after its first, speculation aside.
+    pub retries: u32,
+    /// Speculative second hand-outs.
+    pub speculated: u32,
+}
