@@ -168,11 +168,17 @@ pub async fn run(mut rx: mpsc::UnboundedReceiver<Event>, config: ServerConfig, s
                 sched.heard_from(id, now);
                 match msg {
                     FromWorker::Tile { key, film_tile, stats } => {
-                        out.answered(&key, now);
-                        sched.tile_done(id, key, film_tile, stats, &mut out)
+                        let (handed, merged) = (out.answered(&key), out.metrics.tiles_merged.get());
+                        sched.tile_done(id, key, film_tile, stats, &mut out);
+                        // A tile's latency is its merged result's, not that
+                        // of a speculative copy that lost.
+                        if out.metrics.tiles_merged.get() > merged {
+                            out.observe_latency(handed, now);
+                        }
                     }
                     FromWorker::Failed { key, message, retryable } => {
-                        out.answered(&key, now);
+                        let handed = out.answered(&key);
+                        out.observe_latency(handed, now);
                         out.metrics.tiles_failed.inc();
                         sched.tile_failed(id, key, message, retryable, &mut out)
                     }

@@ -73,9 +73,14 @@ pub(crate) fn job_events(update: &JobUpdate) -> Vec<v1::JobEvent> {
 }
 
 impl GrpcOutbox {
-    /// A worker answered hand-out `key`: its latency is observed.
-    pub(super) fn answered(&mut self, key: &TileAttempt, now: Instant) {
-        if let Some(t) = self.handed.remove(key) {
+    /// A worker answered hand-out `key`: when it was handed out.
+    pub(super) fn answered(&mut self, key: &TileAttempt) -> Option<Instant> {
+        self.handed.remove(key)
+    }
+
+    /// Observes the latency of a hand-out made at `handed`.
+    pub(super) fn observe_latency(&self, handed: Option<Instant>, now: Instant) {
+        if let Some(t) = handed {
             self.metrics.tile_latency.observe(now.duration_since(t).as_secs_f64());
         }
     }
