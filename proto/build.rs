@@ -7,6 +7,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         println!("cargo:rerun-if-changed={p}");
     }
     let fds = protox::compile(protos, ["."])?;
-    tonic_prost_build::configure().compile_fds(fds)?;
+    // Every service encodes through farm_proto's codec (see src/codec.rs).
+    tonic_prost_build::configure().codec_path("crate::codec::ReservingCodec").compile_fds(fds)?;
     Ok(())
 }

@@ -21,7 +21,9 @@
 //! callgrind and also reports the instructions it executed during each
 //! render (zeroed before, dumped after, with `callgrind_control`): a count
 //! that does not depend on the machine's load. Give it more samples per
-//! pixel (the coordinator runs some 50× slower under valgrind).
+//! pixel (the coordinator runs some 50× slower under valgrind). Its glibc
+//! copies with vector loops there ([`STRING_LOOPS`]), so that a large
+//! copy counts about what it costs.
 //!
 //! `FARM_PIN=1` (Linux, `taskset`) gives the coordinator CPU 0 to itself
 //! and runs everything else (workers, `farm submit`, this program's page
@@ -64,6 +66,12 @@ fn on_cpu(cpu: u32, cmd: Command) -> Command {
     }
     let mut t = Command::new("taskset");
     t.args(["-c", &cpu.to_string()]).arg(cmd.get_program()).args(cmd.get_args());
+    for (k, v) in cmd.get_envs() {
+        match v {
+            Some(v) => t.env(k, v),
+            None => t.env_remove(k),
+        };
+    }
     t
 }
 
@@ -304,6 +312,15 @@ fn render(
     Run { wall, cpu, instructions, tev_bytes: bytes.load(Ordering::Relaxed), requests }
 }
 
+/// glibc's settings that keep `memcpy` and `memset` in their vector
+/// loops at every size. Callgrind counts each iteration of a `rep movsb`
+/// or `rep stosb` (which glibc uses from a few KiB up) as an instruction,
+/// so a 1 MiB copy would count 1,048,576 instructions where the CPU moves
+/// tens of bytes a cycle; the loops count about 0.1 a byte, in line with
+/// what the copy costs.
+const STRING_LOOPS: &str =
+    "glibc.cpu.x86_rep_movsb_threshold=1099511627776:glibc.cpu.x86_rep_stosb_threshold=1099511627776";
+
 /// A coordinator (under callgrind if asked) and two workers of one thread.
 struct Farm {
     url: String,
@@ -322,7 +339,8 @@ impl Farm {
             out.push(dir.join("cg.out"));
             c.args(["--tool=callgrind", "--dump-instr=no"])
                 .arg(out)
-                .arg(env!("CARGO_BIN_EXE_farm"));
+                .arg(env!("CARGO_BIN_EXE_farm"))
+                .env("GLIBC_TUNABLES", STRING_LOOPS);
             c
         } else {
             farm()

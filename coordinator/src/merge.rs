@@ -21,6 +21,26 @@ fn le_bytes(v: [f32; 4]) -> [u8; 16] {
     out
 }
 
+/// Appends `rows` to `out` (`bytes` in all), each value as `f` encodes
+/// it: a row at a time through a buffer filled in place and copied whole,
+/// so neither a value nor a row grows `out` piecemeal.
+fn append_rows<'a, T: 'a, const N: usize>(
+    out: &mut Vec<u8>,
+    bytes: usize,
+    rows: impl Iterator<Item = &'a [T]>,
+    f: impl Fn(&T) -> [u8; N],
+) {
+    out.reserve(bytes);
+    let mut buf: Vec<[u8; N]> = Vec::new();
+    for row in rows {
+        buf.resize(row.len(), [0; N]);
+        for (d, v) in buf.iter_mut().zip(row) {
+            *d = f(v);
+        }
+        out.extend_from_slice(buf.as_flattened());
+    }
+}
+
 /// Whether a tile was used.
 #[derive(Debug, PartialEq, Eq, Clone, Copy)]
 pub enum Accepted {
@@ -46,6 +66,10 @@ pub struct Film {
     changes: Vec<Bounds2i>,
     /// The estimate so far, kept for whoever asks (the dashboard).
     running: Running,
+    /// Each tile's [`FilmGeometry::tile_final_pixels`] within the crop,
+    /// worked out once: merging, the running estimate and every watcher
+    /// ask for them.
+    finals: Vec<Bounds2i>,
 }
 
 /// The error estimate of the merged tiles, brought up to date a tile at a
@@ -64,6 +88,10 @@ impl Film {
     /// An empty film.
     pub fn new(geometry: FilmGeometry) -> Self {
         let sums = FilmTile::new(geometry.cropped_pixel_bounds);
+        let crop = geometry.cropped_pixel_bounds;
+        let finals = (0..geometry.tile_count())
+            .map(|t| geometry.tile_final_pixels(TileId(t)).intersect(&crop))
+            .collect();
         Film {
             geometry,
             sums,
@@ -71,12 +99,19 @@ impl Film {
             pending: BTreeMap::new(),
             changes: Vec::new(),
             running: Running::default(),
+            finals,
         }
     }
 
     /// The layout.
     pub fn geometry(&self) -> &FilmGeometry {
         &self.geometry
+    }
+
+    /// Tile `t`'s [`FilmGeometry::tile_final_pixels`] within the crop
+    /// (empty past the last tile).
+    pub fn final_pixels(&self, t: TileId) -> Bounds2i {
+        self.finals.get(t.0 as usize).copied().unwrap_or_default()
     }
 
     /// Tiles merged so far (all tiles before this index are in).
@@ -142,7 +177,7 @@ impl Film {
             self.sums.merge(&t);
             let t = TileId(self.next);
             self.next += 1;
-            let fin = g.tile_final_pixels(t).intersect(&crop);
+            let fin = self.finals[t.0 as usize];
             if t == id && !early {
                 self.changes.extend(Some(fin).filter(|r| !r.is_empty()));
             } else {
@@ -183,7 +218,7 @@ impl Film {
             r.per_pixel = vec![f64::NAN; b.area()];
         }
         for t in r.upto..self.next {
-            let fin = g.tile_final_pixels(TileId(t)).intersect(&b);
+            let fin = self.finals[t as usize];
             for y in fin.min.y..fin.max.y {
                 let i = self.sums.pixel_bounds.offset(Point2i::new(fin.min.x, y));
                 let n = fin.width() as usize;
@@ -223,14 +258,11 @@ impl Film {
         if r.is_empty() {
             return true;
         }
-        out.reserve(r.area() * 4);
-        for y in r.min.y..r.max.y {
-            let row = &per_pixel[y as usize * w..][r.min.x as usize..r.max.x as usize];
-            for &e in row {
-                let v = if e.is_nan() { 0.0 } else { e as f32 };
-                out.extend_from_slice(&v.to_le_bytes());
-            }
-        }
+        let rows = (r.min.y..r.max.y)
+            .map(|y| &per_pixel[y as usize * w..][r.min.x as usize..r.max.x as usize]);
+        append_rows(out, r.area() * 4, rows, |&e| {
+            (if e.is_nan() { 0.0 } else { e as f32 }).to_le_bytes()
+        });
         true
     }
 
@@ -289,19 +321,14 @@ impl Film {
         }
         let n = b.width() as usize;
         let start = out.len();
-        out.reserve(b.area() * 16);
-        // A row at a time through a small buffer: filled a pixel at a
-        // time, copied whole.
-        let mut row: Vec<[u8; 16]> = Vec::with_capacity(n);
-        for y in b.min.y..b.max.y {
+        let rows = (b.min.y..b.max.y).map(|y| {
             let i = self.sums.pixel_bounds.offset(Point2i::new(b.min.x, y));
-            row.clear();
-            row.extend(self.sums.pixels[i..i + n].iter().map(|p| {
-                let [r, g, bl] = p.contrib;
-                le_bytes([r, g, bl, p.weight])
-            }));
-            out.extend_from_slice(row.as_flattened());
-        }
+            &self.sums.pixels[i..i + n]
+        });
+        append_rows(out, b.area() * 16, rows, |p| {
+            let [r, g, bl] = p.contrib;
+            le_bytes([r, g, bl, p.weight])
+        });
         // Tiles that arrived early add where they overlap (in the order of
         // their ids; for display only).
         let (mine, _) = out[start..].as_chunks_mut::<16>();

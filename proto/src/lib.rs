@@ -11,6 +11,8 @@ pub mod v1 {
 
 /// Tokens and roles.
 pub mod auth;
+/// The services' codec.
+pub mod codec;
 /// Connecting to a coordinator over TLS or, on loopback, plaintext.
 pub mod connect;
 /// Conversions between protocol messages and farm types.

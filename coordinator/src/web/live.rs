@@ -93,10 +93,9 @@ fn piece_header(out: &mut Vec<u8>, b: Bounds2i, kind: u32) {
     put(out, kind);
 }
 
-/// The final pixels of tiles `from..to` (image coordinates), as strips.
-fn final_pixels(g: &FilmGeometry, from: u32, to: u32) -> Vec<Bounds2i> {
-    let b = g.cropped_pixel_bounds;
-    let fin = (from.min(to)..to).map(|t| g.tile_final_pixels(TileId(t)).intersect(&b));
+/// Tiles' final pixels (film coordinates, within the crop `b`) in image
+/// coordinates, as strips.
+fn final_pixels(b: Bounds2i, fin: impl Iterator<Item = Bounds2i>) -> Vec<Bounds2i> {
     strips(fin.map(|r| shift(r, -b.min.x, -b.min.y)))
 }
 
@@ -109,8 +108,11 @@ pub fn running(film: &Film, from: usize, merged: u32) -> Vec<u8> {
     let mut cursor = LiveCursor::at(from);
     let regions = cursor.take(film, usize::MAX);
     let now = film.merged();
-    let errors =
-        if film.has_running_estimate() { final_pixels(g, merged, now) } else { Vec::new() };
+    let errors = if film.has_running_estimate() {
+        final_pixels(b, (merged.min(now)..now).map(|t| film.final_pixels(TileId(t))))
+    } else {
+        Vec::new()
+    };
     let (width, height) = (b.width() as u32, b.height() as u32);
     let pieces = regions.len() + errors.len();
     let (next, state, scale) = (cursor.position(), RUNNING, g.scale);
@@ -139,7 +141,9 @@ pub fn finished_since(
 ) -> Vec<u8> {
     let (w, h) = (image.width, image.height);
     let error = error.filter(|e| e.len() == image.pixels.len());
-    let regions = final_pixels(g, merged, g.tile_count());
+    let b = g.cropped_pixel_bounds;
+    let fin = (merged..g.tile_count()).map(|t| g.tile_final_pixels(TileId(t)).intersect(&b));
+    let regions = final_pixels(b, fin);
     let cropped = g.cropped_pixel_bounds;
     if merged == 0 || (cropped.width() as usize, cropped.height() as usize) != (w, h) {
         return finished(image, error);
