@@ -102,7 +102,12 @@ pub async fn channel(url: &str, token: Option<&Token>) -> Result<(Channel, Beare
     let host = host.trim_start_matches('[').trim_end_matches(']').to_string();
     let endpoint = Endpoint::from_shared(url.to_string())
         .map_err(|_| ConnectError::BadUrl(url.to_string()))?
-        .connect_timeout(Duration::from_secs(5));
+        .connect_timeout(Duration::from_secs(5))
+        // Images, previews and blobs come in megabytes: HTTP/2's 64 KiB
+        // default windows would have the coordinator send them in 64 KiB
+        // rounds, each waiting for this side's window update.
+        .initial_stream_window_size(Some(4 << 20))
+        .initial_connection_window_size(Some(8 << 20));
     let mut pinned = None;
     let (endpoint, bearer, hint) = match uri.scheme_str() {
         Some("http") => (
