@@ -101,7 +101,12 @@ pub(super) fn live_answer(
         recent.looked(job, film.geometry(), now);
         // The error map is the running estimate's, brought up to date.
         film.running_estimate();
-        return LiveAnswer::Running(crate::web::live::running(film, from, merged));
+        return LiveAnswer::Running(crate::web::live::running(
+            film,
+            from,
+            merged,
+            crate::web::live::ANSWER_PIXELS,
+        ));
     }
     match sched.snapshot(job) {
         None => LiveAnswer::NoJob,

@@ -77,21 +77,22 @@ function startLive(box) {
   let merged = 0;
   let updates = 0;
   async function look() {
-    let again = true;
+    let wait = 1000;
     try {
       const r = await fetch(`${box.dataset.live}?from=${from}&merged=${merged}`, { cache: "no-store" });
-      if (r.ok) again = draw(new DataView(await r.arrayBuffer()));
+      if (r.ok) wait = draw(new DataView(await r.arrayBuffer()));
     } catch (e) { /* try again */ }
-    if (again) setTimeout(look, 1000);
+    if (wait !== null) setTimeout(look, wait);
   }
-  // Returns whether to keep looking. The answer's layout is documented in
+  // Returns how long to wait before the next look (null: stop looking; 0:
+  // the answer was a part and more is ready). The answer's layout is documented in
   // the coordinator's web/live.rs: pieces of the film's sums, which the
   // page resolves and tone-maps itself, and of the error map.
   function draw(d) {
     const u = (i) => d.getUint32(i, true);
     const f = (i) => d.getFloat32(i, true);
     const [w, h, next, done, state, scale, n] = [u(0), u(4), u(8), u(12), u(16), f(20), u(24)];
-    if (state === 2) return false;
+    if (state === 2) return null;
     if (w > 0 && (image.width !== w || image.height !== h)) {
       for (const c of [image, error]) { c.width = w; c.height = h; }
     }
@@ -134,8 +135,8 @@ function startLive(box) {
     if (n > 0) image.dataset.updates = String(++updates);
     from = next;
     merged = done;
-    if (state === 1) { image.dataset.done = "1"; return false; }
-    return true;
+    if (state === 1) { image.dataset.done = "1"; return null; }
+    return state === 3 ? 0 : 1000;
   }
   look();
 }

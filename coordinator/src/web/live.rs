@@ -10,7 +10,7 @@
 //!
 //! ```text
 //! u32 width, u32 height, u32 next cursor, u32 tiles merged, u32 state (0 running,
-//! 1 done, 2 ended without an image), f32 scale, u32 piece count, then per piece:
+//! 1 done, 2 ended without an image, 3 running with more ready: look again now), f32 scale, u32 piece count, then per piece:
 //!   u32 x0, u32 y0, u32 w, u32 h, u32 kind (0 pixels, 1 pixels and error map, 2 error map),
 //!   pixels: running: w·h × (f32 Σw·r, Σw·g, Σw·b, Σw); done: w·h × (f32 r, g, b),
 //!   then error map: w·h × f32 relMSE
@@ -23,7 +23,7 @@
 //! copied as the journal holds it.
 
 use super::{may_touch, Caller, Web};
-use crate::live::{shift, strips, LiveCursor};
+use crate::live::{shift, strips};
 use crate::merge::Film;
 use crate::server::events::{Event, LiveAnswer};
 use crate::state::Command;
@@ -50,6 +50,22 @@ pub(super) struct Since {
 const RUNNING: u32 = 0;
 const DONE: u32 = 1;
 const ENDED: u32 = 2;
+/// Running, and this answer is a part: more is ready now.
+const MORE: u32 = 3;
+
+/// How many of `sizes`, in order, fit in `max` (at least one, if any).
+fn upto(sizes: impl Iterator<Item = usize>, max: usize) -> usize {
+    let mut total = 0usize;
+    let mut n = 0;
+    for s in sizes {
+        total = total.saturating_add(s);
+        if n > 0 && total > max {
+            break;
+        }
+        n += 1;
+    }
+    n
+}
 
 /// A piece's kind: what follows its header.
 const PIXELS: u32 = 0;
@@ -99,23 +115,39 @@ fn final_pixels(b: Bounds2i, fin: impl Iterator<Item = Bounds2i>) -> Vec<Bounds2
     strips(fin.map(|r| shift(r, -b.min.x, -b.min.y)))
 }
 
+/// Pixels in one running answer, at most (16 bytes each: 4 MiB): a page
+/// that looks first at a large film's end, or a client that asks again
+/// and again from the start, is sent the film in parts of this size
+/// (state [`MORE`]), never a whole 4K film's sums in one go.
+pub const ANSWER_PIXELS: usize = 1 << 18;
+
 /// A running job's answer: the pixels completed since cursor `from`, and
 /// the running estimate's error map (as last brought up to date) over the
-/// tiles merged since the page saw `merged`.
-pub fn running(film: &Film, from: usize, merged: u32) -> Vec<u8> {
+/// tiles merged since the page saw `merged`; each up to `max_pixels`, the
+/// rest left for the next look (state [`MORE`]).
+pub fn running(film: &Film, from: usize, merged: u32, max_pixels: usize) -> Vec<u8> {
     let g = film.geometry();
     let b = g.cropped_pixel_bounds;
-    let mut cursor = LiveCursor::at(from);
-    let regions = cursor.take(film, usize::MAX);
+    // The oldest changes first, as many as fit (at least one).
+    let (changes, end) = film.changes_since(from);
+    let taken = upto(changes.iter().map(|r| r.area()), max_pixels);
+    let regions = strips(changes[..taken].iter().map(|r| shift(*r, -b.min.x, -b.min.y)));
     let now = film.merged();
-    let errors = if film.has_running_estimate() {
-        final_pixels(b, (merged.min(now)..now).map(|t| film.final_pixels(TileId(t))))
+    let merged = merged.min(now);
+    let (errors, now) = if film.has_running_estimate() {
+        let tiles = merged..now;
+        let n = upto(tiles.clone().map(|t| film.final_pixels(TileId(t)).area()), max_pixels);
+        let last = merged + n as u32;
+        (final_pixels(b, (merged..last).map(|t| film.final_pixels(TileId(t)))), last)
     } else {
-        Vec::new()
+        (Vec::new(), now)
     };
+    let more = taken < changes.len() || now < film.merged();
+    let next = end - changes.len() + taken;
+    let state = if more { MORE } else { RUNNING };
     let (width, height) = (b.width() as u32, b.height() as u32);
     let pieces = regions.len() + errors.len();
-    let (next, state, scale) = (cursor.position(), RUNNING, g.scale);
+    let scale = g.scale;
     let mut out = Header { width, height, next, merged: now, state, scale, pieces }.bytes();
     let area = |v: &[Bounds2i]| v.iter().map(|r| 20 + r.area()).sum::<usize>();
     out.reserve(area(&regions) * 16 + area(&errors) * 4);
@@ -301,7 +333,7 @@ mod tests {
         }
         film.accept(TileId(0), t).unwrap();
         film.running_estimate();
-        let u = words(&running(&film, 0, 0));
+        let u = words(&running(&film, 0, 0, usize::MAX));
         assert_eq!(&u[..7], &[40, 20, 1, 1, RUNNING, 2.0f32.to_bits(), 2]);
         let fb = g.tile_final_pixels(TileId(0));
         let (w, h, n) = (fb.width() as u32, fb.height() as u32, fb.area());
@@ -312,11 +344,11 @@ mod tests {
         assert_eq!(&u[e..e + 5], &[0, 0, w, h, ERROR], "then their error map");
         assert_eq!(u.len(), e + 5 + n);
         assert!(f(e + 5) > 0.0, "an error estimate");
-        let again = words(&running(&film, 1, 1));
+        let again = words(&running(&film, 1, 1, usize::MAX));
         assert_eq!(&again[..7], &[40, 20, 1, 1, RUNNING, 2.0f32.to_bits(), 0], "nothing new");
         // A page that missed the error map sees it again; one from the future sees nothing.
-        assert_eq!(words(&running(&film, 1, 0))[6], 1);
-        assert_eq!(words(&running(&film, 9, 99))[..7], again[..7]);
+        assert_eq!(words(&running(&film, 1, 0, usize::MAX))[6], 1);
+        assert_eq!(words(&running(&film, 9, 99, usize::MAX))[..7], again[..7]);
     }
 
     #[test]
@@ -404,5 +436,51 @@ mod tests {
         assert!(finished_from_events(&[chunk(1..4, true), chunk(0..1, true)]).is_none());
         assert!(finished_from_events(&[chunk(0..1, true), chunk(1..4, false)]).is_none());
         assert!(finished_from_events(&[]).is_none());
+    }
+
+    #[test]
+    fn a_large_film_is_sent_in_parts_each_pixel_once() {
+        let b = Bounds2i::new(Point2i::new(0, 0), Point2i::new(64, 40));
+        let g = FilmGeometry::new(b.max, b, Vec2::splat(0.5), 1.0, f32::INFINITY, "x".into(), 35.0);
+        let mut film = Film::new(g.clone());
+        for t in 0..g.tile_count() {
+            let mut tile = FilmTile::new(g.tile_pixel_bounds(TileId(t)));
+            for p in tile.pixel_bounds.iter() {
+                tile.add(p, farm_common::Spectrum::new(1.0, 1.0, 1.0), 0.5, false);
+                tile.add(p, farm_common::Spectrum::new(2.0, 1.0, 1.0), 0.5, true);
+            }
+            film.accept(TileId(t), tile).unwrap();
+        }
+        film.running_estimate();
+        // Parts of at most 300 pixels (or one change or tile, if larger).
+        let (mut from, mut merged, mut parts) = (0usize, 0u32, 0);
+        let (mut seen, mut errors) = (vec![0u8; b.area()], vec![0u8; b.area()]);
+        loop {
+            let u = words(&running(&film, from, merged, 300));
+            parts += 1;
+            let (mut at, mut pixels) = (7, 0);
+            for _ in 0..u[6] {
+                let (x, y, w, h, kind) = (u[at], u[at + 1], u[at + 2], u[at + 3], u[at + 4]);
+                let marks = if kind == ERROR { &mut errors } else { &mut seen };
+                for py in y..y + h {
+                    for px in x..x + w {
+                        marks[(py * 64 + px) as usize] += 1;
+                    }
+                }
+                pixels += (w * h) as usize;
+                at += 5 + (w * h) as usize * if kind == ERROR { 1 } else { 4 };
+            }
+            assert_eq!(at, u.len(), "the pieces fill the answer");
+            assert!(pixels <= 2 * 300, "a part is bounded: {pixels} pixels");
+            (from, merged) = (u[2] as usize, u[3]);
+            if u[4] == RUNNING {
+                break;
+            }
+            assert_eq!(u[4], MORE);
+            assert!(parts < 100, "the parts end");
+        }
+        assert!(parts > 2, "sent in parts ({parts})");
+        assert!(seen.iter().all(|&n| n == 1), "each pixel once");
+        assert!(errors.iter().all(|&n| n == 1), "each pixel's error once");
     }
 }
