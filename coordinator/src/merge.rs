@@ -21,24 +21,26 @@ fn le_bytes(v: [f32; 4]) -> [u8; 16] {
     out
 }
 
-/// Appends `rows` to `out` (`bytes` in all), each value as `f` encodes
-/// it: a row at a time through a buffer filled in place and copied whole,
-/// so neither a value nor a row grows `out` piecemeal.
+/// Appends `rows` to `out` (`count` values in all), each value as `f`
+/// encodes it, written in place: one zero-fill of the room, no per-row or
+/// per-value growth and no second copy.
 fn append_rows<'a, T: 'a, const N: usize>(
     out: &mut Vec<u8>,
-    bytes: usize,
+    count: usize,
     rows: impl Iterator<Item = &'a [T]>,
     f: impl Fn(&T) -> [u8; N],
 ) {
-    out.reserve(bytes);
-    let mut buf: Vec<[u8; N]> = Vec::new();
+    let start = out.len();
+    out.resize(start + count * N, 0);
+    let (mut dst, _) = out[start..].as_chunks_mut::<N>();
     for row in rows {
-        buf.resize(row.len(), [0; N]);
-        for (d, v) in buf.iter_mut().zip(row) {
+        let (d, rest) = dst.split_at_mut(row.len().min(dst.len()));
+        for (d, v) in d.iter_mut().zip(row) {
             *d = f(v);
         }
-        out.extend_from_slice(buf.as_flattened());
+        dst = rest;
     }
+    debug_assert!(dst.is_empty(), "rows fill the room");
 }
 
 /// Whether a tile was used.
@@ -260,7 +262,7 @@ impl Film {
         }
         let rows = (r.min.y..r.max.y)
             .map(|y| &per_pixel[y as usize * w..][r.min.x as usize..r.max.x as usize]);
-        append_rows(out, r.area() * 4, rows, |&e| {
+        append_rows(out, r.area(), rows, |&e| {
             (if e.is_nan() { 0.0 } else { e as f32 }).to_le_bytes()
         });
         true
@@ -325,7 +327,7 @@ impl Film {
             let i = self.sums.pixel_bounds.offset(Point2i::new(b.min.x, y));
             &self.sums.pixels[i..i + n]
         });
-        append_rows(out, b.area() * 16, rows, |p| {
+        append_rows(out, b.area(), rows, |p| {
             let [r, g, bl] = p.contrib;
             le_bytes([r, g, bl, p.weight])
         });
