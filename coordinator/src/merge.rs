@@ -75,12 +75,12 @@ pub struct Film {
 }
 
 /// The error estimate of the merged tiles, brought up to date a tile at a
-/// time when asked: each complete pixel's value (NaN where a half has no
-/// samples or the pixel is not complete yet), their sum and count, and the
-/// tiles taken in so far.
+/// time when asked: each complete pixel's value as the error map shows it
+/// (0 where a half has no samples or the pixel is not complete yet), the
+/// sum and count of the values, and the tiles taken in so far.
 #[derive(Debug, Default)]
 struct Running {
-    per_pixel: Vec<f64>,
+    map: Vec<f32>,
     sum: f64,
     counted: usize,
     upto: u32,
@@ -190,44 +190,46 @@ impl Film {
     }
 
     /// The render's estimate of its own error (`None` at one sample per
-    /// pixel). Once complete, a film whose running estimate was asked for
-    /// finishes that and reads it off (the same values, summed in the same
-    /// order: the same bits), so no pixel's error is computed twice.
+    /// pixel): [`ErrorEstimate::from_pixels`] of the merged film, its
+    /// pixels' errors summed tile by tile, as [`Film::running_estimate`]
+    /// sums them, so a watched render (whose running estimate has taken in
+    /// most tiles already) and an unwatched one give the same bits, and no
+    /// pixel's error is computed twice.
     pub fn error_estimate(&mut self) -> Option<ErrorEstimate> {
+        self.running_estimate()?;
         let b = self.geometry.cropped_pixel_bounds;
-        if self.is_complete() && self.running.per_pixel.len() == b.area() {
-            self.running_estimate();
-            let values = self.running.per_pixel.iter().map(|&e| (!e.is_nan()).then_some(e));
-            return ErrorEstimate::from_values(b, values);
-        }
-        let g = &self.geometry;
-        let samples = Samples::of(g.independent_samples);
-        ErrorEstimate::from_pixels(b, &self.sums.pixels, g.scale, samples)
+        let r = &self.running;
+        Some(ErrorEstimate {
+            width: b.width() as usize,
+            height: b.height() as usize,
+            per_pixel: r.map.clone(),
+            rel_mse: r.sum / r.counted as f64,
+        })
     }
 
     /// The estimate of [`Film::error_estimate`] over the pixels whose sums
     /// are complete ([`FilmGeometry::tile_final_pixels`] of the tiles
     /// merged so far), for a running job's display. Each pixel's error is
     /// computed once, when its last tile is merged, so asking often costs
-    /// little (the first call allocates 8 bytes a pixel); once every tile
-    /// is in, [`Film::error_estimate`] reuses it.
+    /// little (the first call allocates 4 bytes a pixel); once every tile
+    /// is in, [`Film::error_estimate`] reads it off.
     pub fn running_estimate(&mut self) -> Option<f64> {
         let g = &self.geometry;
         let b = g.cropped_pixel_bounds;
         let samples = Samples::of(g.independent_samples);
         let r = &mut self.running;
-        if r.per_pixel.len() != b.area() {
-            r.per_pixel = vec![f64::NAN; b.area()];
+        if r.map.len() != b.area() {
+            r.map = vec![0.0; b.area()];
         }
         for t in r.upto..self.next {
             let fin = self.finals[t as usize];
             for y in fin.min.y..fin.max.y {
                 let i = self.sums.pixel_bounds.offset(Point2i::new(fin.min.x, y));
                 let n = fin.width() as usize;
-                let out = &mut r.per_pixel[i..i + n];
+                let out = &mut r.map[i..i + n];
                 for (e, p) in out.iter_mut().zip(&self.sums.pixels[i..i + n]) {
                     if let Some(v) = pixel_error(p, g.scale, samples) {
-                        *e = v;
+                        *e = v as f32;
                         r.sum += v;
                         r.counted += 1;
                     }
@@ -240,7 +242,7 @@ impl Film {
 
     /// Whether [`Film::running_estimate`] was asked for.
     pub fn has_running_estimate(&self) -> bool {
-        self.running.per_pixel.len() == self.geometry.cropped_pixel_bounds.area()
+        self.running.map.len() == self.geometry.cropped_pixel_bounds.area()
     }
 
     /// Appends the running estimate's per-pixel values over `region`
@@ -250,8 +252,8 @@ impl Film {
     /// was first asked for.
     pub fn write_error_map(&self, region: Bounds2i, out: &mut Vec<u8>) -> bool {
         let b = self.geometry.cropped_pixel_bounds;
-        let per_pixel = &self.running.per_pixel;
-        if per_pixel.len() != b.area() {
+        let map = &self.running.map;
+        if map.len() != b.area() {
             return false;
         }
         let w = b.width() as usize;
@@ -260,11 +262,9 @@ impl Film {
         if r.is_empty() {
             return true;
         }
-        let rows = (r.min.y..r.max.y)
-            .map(|y| &per_pixel[y as usize * w..][r.min.x as usize..r.max.x as usize]);
-        append_rows(out, r.area(), rows, |&e| {
-            (if e.is_nan() { 0.0 } else { e as f32 }).to_le_bytes()
-        });
+        let rows =
+            (r.min.y..r.max.y).map(|y| &map[y as usize * w..][r.min.x as usize..r.max.x as usize]);
+        append_rows(out, r.area(), rows, |e| e.to_le_bytes());
         true
     }
 
@@ -573,6 +573,23 @@ mod tests {
         assert_eq!(watched.rel_mse.to_bits(), plain.rel_mse.to_bits(), "the same bits");
         assert_eq!(watched, plain);
         assert!((running - plain.rel_mse).abs() <= 1e-12 * plain.rel_mse);
+        // The estimate of the whole film at once: the same per-pixel values,
+        // and the same mean but for the order of the sum.
+        let direct = ErrorEstimate::from_pixels(b, &f.sums.pixels, g.scale, samples).unwrap();
+        let bits = |e: &ErrorEstimate| e.per_pixel.iter().map(|v| v.to_bits()).collect::<Vec<_>>();
+        assert_eq!(bits(&plain), bits(&direct));
+        assert_eq!((plain.width, plain.height), (direct.width, direct.height));
+        assert!((direct.rel_mse - plain.rel_mse).abs() <= 1e-12 * plain.rel_mse);
+        // One sample per pixel: no estimate.
+        let mut one = Film::new(g.clone());
+        for id in 0..n {
+            let mut t = FilmTile::new(g.tile_pixel_bounds(TileId(id)));
+            for p in t.pixel_bounds.iter() {
+                t.add(p, Spectrum::new(0.5, 0.5, 0.5), 1.0, false);
+            }
+            one.accept(TileId(id), t).unwrap();
+        }
+        assert!(one.error_estimate().is_none());
     }
 
     fn single(p: Point2i) -> Bounds2i {

@@ -105,9 +105,12 @@ pub async fn channel(url: &str, token: Option<&Token>) -> Result<(Channel, Beare
         .connect_timeout(Duration::from_secs(5))
         // Images, previews and blobs come in megabytes: HTTP/2's 64 KiB
         // default windows would have the coordinator send them in 64 KiB
-        // rounds, each waiting for this side's window update.
+        // rounds, each waiting for this side's window update; and in
+        // frames of up to 1 MiB rather than HTTP/2's 16 KiB, each frame
+        // costing the coordinator the same whatever its size.
         .initial_stream_window_size(Some(4 << 20))
-        .initial_connection_window_size(Some(8 << 20));
+        .initial_connection_window_size(Some(8 << 20))
+        .max_frame_size(1 << 20);
     let mut pinned = None;
     let (endpoint, bearer, hint) = match uri.scheme_str() {
         Some("http") => (

@@ -34,22 +34,27 @@ impl Bounds2i {
         Bounds2i { min, max }
     }
     /// Width (zero if empty).
+    #[inline]
     pub fn width(&self) -> i32 {
         (self.max.x - self.min.x).max(0)
     }
     /// Height (zero if empty).
+    #[inline]
     pub fn height(&self) -> i32 {
         (self.max.y - self.min.y).max(0)
     }
     /// Number of pixels.
+    #[inline]
     pub fn area(&self) -> usize {
         self.width() as usize * self.height() as usize
     }
     /// Whether no pixel is inside.
+    #[inline]
     pub fn is_empty(&self) -> bool {
         self.max.x <= self.min.x || self.max.y <= self.min.y
     }
     /// The overlap of two rectangles (possibly empty).
+    #[inline]
     pub fn intersect(&self, o: &Bounds2i) -> Bounds2i {
         Bounds2i::new(
             Point2i::new(self.min.x.max(o.min.x), self.min.y.max(o.min.y)),
@@ -57,6 +62,7 @@ impl Bounds2i {
         )
     }
     /// Whether `p` lies inside the half-open rectangle.
+    #[inline]
     pub fn contains(&self, p: Point2i) -> bool {
         p.x >= self.min.x && p.x < self.max.x && p.y >= self.min.y && p.y < self.max.y
     }
