@@ -23,7 +23,15 @@ use farm_render::shapes::{self, Shape};
 use farm_render::textures::TextureSet;
 use std::sync::LazyLock;
 
+#[path = "kernels/dump.rs"]
+mod dump;
+
 fn main() {
+    // For the Embree comparison: see `kernels/dump.rs`.
+    if let Some(dir) = std::env::var_os("FARM_DUMP_DIR") {
+        dump::run(std::path::Path::new(&dir));
+        return;
+    }
     divan::main();
 }
 
@@ -223,20 +231,15 @@ mod bvh {
     /// Camera rays: a 64 × 64 jittered image of the torus, in raster order.
     const IMAGE: usize = 64;
 
-    struct Setup {
+    pub(crate) struct Setup {
         aggregate: Aggregate,
-        camera: Vec<Ray>,
-        shadow: Vec<Ray>,
+        pub(crate) camera: Vec<Ray>,
+        pub(crate) shadow: Vec<Ray>,
     }
 
-    /// A torus (R = 1, r = 0.35, about z) with normals and uvs, like an
-    /// exported mesh; camera rays from an eye above it; shadow rays from each
-    /// camera hit (or, for a miss, a point in the torus's bounds) to a light.
-    /// 37% of the camera rays hit and 46% of the shadow rays are blocked.
-    /// Shadow rays start inside the mesh's nested boxes and more than half
-    /// must walk every node they cross, so they cost more than camera rays
-    /// whatever the traversal; `closest_hit_shadow_rays` shows that part.
-    static SETUP: LazyLock<Setup> = LazyLock::new(|| {
+    /// The torus's triangles (R = 1, r = 0.35, about z), with normals and
+    /// uvs like an exported mesh.
+    pub(crate) fn torus() -> Vec<Shape> {
         let (n, big_r, small_r) = (TORUS_SEGMENTS, 1.0f32, 0.35f32);
         let (mut p, mut nrm, mut uv, mut indices) = (vec![], vec![], vec![], vec![]);
         for i in 0..n {
@@ -253,7 +256,7 @@ mod bvh {
                 indices.extend([a, b, c, a, c, d]);
             }
         }
-        let shapes = make_shapes(
+        make_shapes(
             "trianglemesh",
             vec![
                 ("indices", ParamValue::Int(indices)),
@@ -262,7 +265,18 @@ mod bvh {
                 ("uv", ParamValue::Point2(uv)),
             ],
             &Transform::default(),
-        );
+        )
+    }
+
+    /// A torus (R = 1, r = 0.35, about z) with normals and uvs, like an
+    /// exported mesh; camera rays from an eye above it; shadow rays from each
+    /// camera hit (or, for a miss, a point in the torus's bounds) to a light.
+    /// 37% of the camera rays hit and 46% of the shadow rays are blocked.
+    /// Shadow rays start inside the mesh's nested boxes and more than half
+    /// must walk every node they cross, so they cost more than camera rays
+    /// whatever the traversal; `closest_hit_shadow_rays` shows that part.
+    pub(crate) static SETUP: LazyLock<Setup> = LazyLock::new(|| {
+        let shapes = torus();
         let prims = shapes
             .into_iter()
             .map(|shape| Primitive { shape, material: Some(0), area_light: None })
