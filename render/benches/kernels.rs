@@ -55,6 +55,24 @@ fn entity(name: &str, params: Vec<(&str, ParamValue)>) -> Entity {
     e
 }
 
+/// The rays of a `side` × `side` pinhole image from `eye` towards the
+/// origin (z up; `half` the tangent of half the field of view), in raster
+/// order, each through its pixel at the offset `at` gives (in [0, 1)²).
+fn pinhole(eye: Vec3, half: f32, side: usize, mut at: impl FnMut() -> Vec2) -> Vec<Ray> {
+    let forward = (-eye).normalize();
+    let right = forward.cross(Vec3::Z).normalize();
+    let up = right.cross(forward);
+    let mut rays = Vec::with_capacity(side * side);
+    for y in 0..side {
+        for x in 0..side {
+            let s = (Vec2::new(x as f32, y as f32) + at()) / side as f32;
+            let d = forward + half * ((2.0 * s.x - 1.0) * right + (1.0 - 2.0 * s.y) * up);
+            rays.push(Ray::new(eye, d.normalize(), 0.0));
+        }
+    }
+    rays
+}
+
 /// Shapes from one `Shape` directive, exactly as the scene builds them.
 fn make_shapes(name: &str, params: Vec<(&str, ParamValue)>, xf: &Transform) -> Vec<Shape> {
     let e = entity(name, params);
@@ -285,19 +303,7 @@ mod bvh {
 
         // A pinhole camera looking at the centre from above and to one side.
         let mut rng = Rng::new(4);
-        let eye = Vec3::new(0.5, -3.0, 2.5);
-        let forward = (-eye).normalize();
-        let right = forward.cross(Vec3::Z).normalize();
-        let up = right.cross(forward);
-        let half = 0.42;
-        let mut camera = Vec::with_capacity(IMAGE * IMAGE);
-        for y in 0..IMAGE {
-            for x in 0..IMAGE {
-                let s = (Vec2::new(x as f32, y as f32) + u2(&mut rng)) / IMAGE as f32;
-                let d = forward + half * ((2.0 * s.x - 1.0) * right + (1.0 - 2.0 * s.y) * up);
-                camera.push(Ray::new(eye, d.normalize(), 0.0));
-            }
-        }
+        let camera = pinhole(Vec3::new(0.5, -3.0, 2.5), 0.42, IMAGE, || u2(&mut rng));
         let light = Vec3::new(2.0, 1.0, 3.0);
         let b = aggregate.bounds();
         let shadow: Vec<Ray> = camera

@@ -167,19 +167,7 @@ fn sphere() -> (Vec<Shape>, Vec<(&'static str, Vec<Ray>)>) {
         &Transform::default(),
     );
     // 1024² pinhole rays from 3.5 away, the sphere filling most of the image.
-    let (side, eye) = (1024usize, Vec3::new(0.3, -3.5, 0.8));
-    let forward = (-eye).normalize();
-    let right = forward.cross(Vec3::Z).normalize();
-    let up = right.cross(forward);
-    let half = 0.35;
-    let mut camera = Vec::with_capacity(side * side);
-    for y in 0..side {
-        for x in 0..side {
-            let s = (Vec2::new(x as f32, y as f32) + 0.5) / side as f32;
-            let d = forward + half * ((2.0 * s.x - 1.0) * right + (1.0 - 2.0 * s.y) * up);
-            camera.push(Ray::new(eye, d.normalize(), 0.0));
-        }
-    }
+    let camera = pinhole(Vec3::new(0.3, -3.5, 0.8), 0.35, 1024, || Vec2::splat(0.5));
     // 2²⁰ rays from points in a box twice the sphere's size, in uniform directions.
     let mut rng = Rng::new(9);
     let incoherent = (0..1 << 20)
