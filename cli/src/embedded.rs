@@ -263,8 +263,11 @@ pub fn render_parsed(
     opts.overrides.apply(&mut desc, &mut warnings);
     // Refuse an oversize film before anything is allocated for it.
     checked_layout(&desc, opts.spp, &opts.limits)?;
+    // The renderer takes the description: what it does not keep (a mesh's
+    // arrays as parsed) is freed as it builds.
+    let name = std::mem::take(&mut desc.name);
     let (renderer, build_warnings) =
-        Renderer::new(&desc, &RenderOptions { spp: opts.spp, all_paths: opts.all_paths })?;
+        Renderer::new(desc, &RenderOptions { spp: opts.spp, all_paths: opts.all_paths })?;
     warnings.extend(build_warnings);
     let startup_seconds = start.elapsed().as_secs_f64();
     let output = opts.output.clone().unwrap_or_else(|| PathBuf::from(&renderer.film.filename));
@@ -273,7 +276,7 @@ pub fn render_parsed(
     let (geometry, spp) = (renderer.film.clone(), renderer.samples_per_pixel());
     let mut display = opts.display_server.as_deref().and_then(|address| {
         let b = geometry.cropped_pixel_bounds;
-        Display::connect(address, &desc.name, b.width(), b.height())
+        Display::connect(address, &name, b.width(), b.height())
             .map_err(|e| {
                 warnings
                     .push(Warning { loc: None, message: format!("{e}; not streaming the image") })
@@ -281,8 +284,7 @@ pub fn render_parsed(
             .ok()
     });
     let render = move |tile| renderer.render_tile(tile);
-    let finished =
-        run_job(render, geometry, spp, &desc.name, opts.threads, display.as_mut(), progress)?;
+    let finished = run_job(render, geometry, spp, &name, opts.threads, display.as_mut(), progress)?;
     let render_seconds = t.elapsed().as_secs_f64();
     let finished = Arc::try_unwrap(finished).unwrap_or_else(|f| (*f).clone());
     Ok(RenderSummary {
@@ -294,7 +296,7 @@ pub fn render_parsed(
         startup_seconds,
         render_seconds,
         features,
-        scene_name: desc.name,
+        scene_name: name,
         warnings,
     })
 }

@@ -47,7 +47,7 @@ fn renderer(cache: &Renderers, spp: u32) -> Arc<Renderer> {
         .or_insert_with(|| {
             let (desc, _) = farm_scene::parse_file(&scene()).expect("scene");
             let opts = RenderOptions { spp: (spp > 0).then_some(spp), all_paths: false };
-            Arc::new(Renderer::new(&desc, &opts).expect("renderer").0)
+            Arc::new(Renderer::new(desc, &opts).expect("renderer").0)
         })
         .clone()
 }

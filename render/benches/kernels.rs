@@ -297,7 +297,7 @@ mod bvh {
         let shapes = torus();
         let prims = shapes
             .into_iter()
-            .map(|shape| Primitive { shape, material: Some(0), area_light: None })
+            .map(|shape| Primitive { shape, material: Some(0).into(), area_light: None.into() })
             .collect();
         let aggregate = Aggregate::new(prims, farm_render::accel::DEFAULT_MAX_PRIMS_IN_NODE);
 

@@ -13,11 +13,39 @@ use std::sync::Arc;
 pub struct Primitive {
     /// The geometry, in the aggregate's space.
     pub shape: Shape,
-    /// Index into the scene's materials; `None` for `Material "none"`
+    /// Index into the scene's materials; none for `Material "none"`
     /// (surfaces that only bound media, skipped by the Whitted integrator).
-    pub material: Option<u32>,
+    pub material: MaybeIndex,
     /// Index into the scene's lights if the shape emits.
-    pub area_light: Option<u32>,
+    pub area_light: MaybeIndex,
+}
+
+// A mesh has one primitive a triangle: its size is most of a mesh's memory.
+const _: () = assert!(std::mem::size_of::<Primitive>() == 40);
+
+/// An index that may be absent, in four bytes (an `Option<u32>` takes
+/// eight): `u32::MAX` stands for none.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct MaybeIndex(u32);
+
+impl MaybeIndex {
+    /// No index.
+    pub const NONE: MaybeIndex = MaybeIndex(u32::MAX);
+
+    /// The index, if there is one.
+    #[inline(always)]
+    pub fn get(self) -> Option<u32> {
+        (self.0 != u32::MAX).then_some(self.0)
+    }
+}
+
+impl From<Option<u32>> for MaybeIndex {
+    /// `Some(u32::MAX)` cannot be told from none; no scene has that many
+    /// materials or lights (each light takes far more than four bytes).
+    fn from(i: Option<u32>) -> Self {
+        debug_assert_ne!(i, Some(u32::MAX));
+        i.map_or(MaybeIndex::NONE, MaybeIndex)
+    }
 }
 
 /// A closest hit and the primitive it landed on.

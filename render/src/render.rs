@@ -80,9 +80,10 @@ impl Renderer {
     /// Builds the scene, camera, sampler and filter of a description. The
     /// warnings say what was ignored (unknown types, unused parameters).
     pub fn new(
-        desc: &SceneDescription,
+        mut desc: SceneDescription,
         opts: &RenderOptions,
     ) -> Result<(Renderer, Vec<Warning>), BuildError> {
+        let desc = &mut desc;
         let (film, filter, sampler, mut warnings) = film_and_sampler(desc, opts);
         if film.cropped_pixel_bounds.is_empty() {
             return Err(BuildError::EmptyFilm);
@@ -134,8 +135,11 @@ impl Renderer {
         if iname == "whitted" {
             warnings.extend(ip.unused_warnings());
         }
-        let world = World::build(desc, render_from_world, &mut warnings)?;
         let features = Features::of(desc);
+        // The world takes the shapes: each one's parameters (a mesh's
+        // arrays) are freed once it is built, before the BVH is.
+        let shapes = std::mem::take(&mut desc.shapes);
+        let world = World::build(desc, shapes, render_from_world, &mut warnings)?;
         let differentials = features.needs_differentials() || opts.all_paths;
         // Shutter time matters only if something moves, the lens point only
         // with a lens; the sampler passes over the others.

@@ -7,7 +7,7 @@ use crate::accel::Bvh;
 use crate::error::BuildError;
 use crate::lights::{self, DiffuseAreaLight, Light};
 use crate::materials::{self, Material};
-use crate::primitive::{Aggregate, Hit, Instance, Placement, Primitive};
+use crate::primitive::{Aggregate, Hit, Instance, MaybeIndex, Placement, Primitive};
 use crate::shapes::{self, Shape};
 use crate::textures::{self, TextureSet};
 use farm_common::geometry::{AnimatedTransform, Bounds3f, DMat4, Ray, Transform, Vec3};
@@ -37,9 +37,12 @@ pub struct World {
 }
 
 impl World {
-    /// Builds the scene; `render_from_world` comes from the camera.
+    /// Builds the scene from `desc` and its top-level `shapes` (taken out of
+    /// it, so each is freed once built); `render_from_world` comes from the
+    /// camera.
     pub fn build(
         desc: &SceneDescription,
+        shapes: Vec<ShapeEntity>,
         render_from_world: DMat4,
         warnings: &mut Vec<Warning>,
     ) -> Result<World, BuildError> {
@@ -73,13 +76,13 @@ impl World {
         // BVH; moving ones become single-use instances.
         let mut prims = Vec::new();
         let mut instances = Vec::new();
-        for s in &desc.shapes {
+        for s in shapes {
             if s.world_from_object.is_static() {
                 let xf = Transform::from_dmat4(render_from_world * s.world_from_object.start);
                 add_shape(s, &xf, &mut cx, Some(&mut lights), &mut prims, warnings);
             } else {
                 let mut local = Vec::new();
-                add_shape(s, &Transform::default(), &mut cx, None, &mut local, warnings);
+                add_shape(&s, &Transform::default(), &mut cx, None, &mut local, warnings);
                 if s.area_light.is_some() {
                     warnings.push(Warning::at(
                         &s.entity.loc,
@@ -241,14 +244,20 @@ impl ShapeCx<'_> {
     }
 }
 
+/// Makes shape `s`'s primitives (and area lights). A shape given by value
+/// is freed once its shapes are made, before they become primitives, so a
+/// mesh's arrays as parsed and its triangles are never held beside its
+/// primitives.
 fn add_shape(
-    s: &ShapeEntity,
+    s: impl std::borrow::Borrow<ShapeEntity>,
     render_from_object: &Transform,
     cx: &mut ShapeCx,
     lights: Option<&mut Vec<Light>>,
     prims: &mut Vec<Primitive>,
     warnings: &mut Vec<Warning>,
 ) {
+    let entity = s;
+    let s = entity.borrow();
     let params = Params::new(&s.entity.params);
     let first = warnings.len();
     let shapes: Vec<Shape> = shapes::create_in(
@@ -259,7 +268,7 @@ fn add_shape(
         Some(cx.textures),
         warnings,
     );
-    let material = cx.material_for(s, &params, warnings);
+    let material: MaybeIndex = cx.material_for(s, &params, warnings).into();
     // The shape's warnings point at its directive.
     for w in &mut warnings[first..] {
         if w.loc.is_none() {
@@ -287,6 +296,8 @@ fn add_shape(
         }
         _ => None,
     };
+    drop(params);
+    drop(entity);
     match area {
         Some((l_emit, two_sided, lights)) => {
             for shape in shapes {
@@ -296,13 +307,13 @@ fn add_shape(
                     shape: shape.clone(),
                     two_sided,
                 }));
-                prims.push(Primitive { shape, material, area_light: Some(id) });
+                prims.push(Primitive { shape, material, area_light: Some(id).into() });
             }
         }
         None => prims.extend(shapes.into_iter().map(|shape| Primitive {
             shape,
             material,
-            area_light: None,
+            area_light: MaybeIndex::NONE,
         })),
     }
 }

@@ -112,7 +112,7 @@ fn closed_mesh_is_watertight_at_shared_edges_and_vertices() {
     let agg = Aggregate::new(
         shapes
             .into_iter()
-            .map(|shape| Primitive { shape, material: None, area_light: None })
+            .map(|shape| Primitive { shape, material: None.into(), area_light: None.into() })
             .collect(),
         farm_render::accel::DEFAULT_MAX_PRIMS_IN_NODE,
     );

@@ -126,7 +126,7 @@ async fn duplicates_bad_tiles_and_unknown_jobs_are_refused_without_harm() {
     };
     let (desc, _) = farm_scene::parse_file(&scene()).expect("scene");
     let (renderer, _) = farm_render::Renderer::new(
-        &desc,
+        desc,
         &farm_render::RenderOptions { spp: Some(SPP), ..Default::default() },
     )
     .expect("renderer");

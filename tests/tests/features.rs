@@ -26,7 +26,7 @@ fn analyse(name: &str, source: &str) -> (Features, bool) {
     let path = dir.join(format!("{name}.pbrt"));
     std::fs::write(&path, source).expect("write");
     let (desc, _) = farm_scene::parse_file(&path).expect("parses");
-    let (r, _) = Renderer::new(&desc, &RenderOptions::default()).expect("builds");
+    let (r, _) = Renderer::new(desc, &RenderOptions::default()).expect("builds");
     let built = farm_render::textures::uses_differentials(&r.world.textures);
     (r.features.clone(), built)
 }

@@ -142,7 +142,7 @@ impl RendererCache {
         }
 
         let opts = RenderOptions { spp: (spp > 0).then_some(spp), ..Default::default() };
-        let built = pool.run(move || Renderer::new(&desc, &opts)).await;
+        let built = pool.run(move || Renderer::new(desc, &opts)).await;
         let (renderer, warnings) = built
             .map_err(|e| bad_scene(format!("building the scene: {e}")))?
             .map_err(|e| bad_scene(e.to_string()))?;

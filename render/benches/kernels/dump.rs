@@ -43,7 +43,7 @@ pub fn run(dir: &Path) {
         let prims: Vec<Primitive> = scene
             .shapes
             .into_iter()
-            .map(|shape| Primitive { shape, material: Some(0), area_light: None })
+            .map(|shape| Primitive { shape, material: Some(0).into(), area_light: None.into() })
             .collect();
         let n = prims.len();
         let max = farm_render::accel::DEFAULT_MAX_PRIMS_IN_NODE;

@@ -130,13 +130,36 @@ impl Node4 {
     }
 }
 
+/// Puts `items` in the order `order` gives (entry `i` is the index of the
+/// item that goes to place `i`; a permutation), in place: each cycle of
+/// the permutation is walked once with swaps, and `order` marks the places
+/// done.
+fn permute<T>(items: &mut [T], mut order: Vec<u32>) {
+    const DONE: u32 = u32::MAX;
+    debug_assert_eq!(items.len(), order.len());
+    for i in 0..order.len() {
+        let mut j = i;
+        while order[j] != DONE {
+            let k = order[j] as usize;
+            order[j] = DONE;
+            if k == i {
+                break;
+            }
+            // Place j takes the item at k; what was at j moves on to k,
+            // whose own item is taken next.
+            items.swap(j, k);
+            j = k;
+        }
+    }
+}
+
 /// Collapses the binary tree `bin` into 4-wide nodes: each node takes its
 /// binary children and keeps opening the interior one with the largest
 /// surface area until it has four. The root's children fill node 0.
 fn collapse(bin: &[LinearNode]) -> Vec<Node4> {
     // Each 4-wide node stands for at least one binary interior node; the
-    // capacity not used (usually two thirds) is never touched, so it takes
-    // address space but no memory.
+    // capacity not used is never touched, so it takes address space but no
+    // memory (and is given back once the tree is built).
     let mut out = Vec::with_capacity(bin.len() / 2 + 1);
     if !bin.is_empty() {
         out.push(Node4 { b: [[[0.0; WIDTH]; 3]; 2], child: [0; WIDTH], count: [0; WIDTH], n: 0 });
@@ -237,16 +260,22 @@ pub struct Bvh {
 impl Bvh {
     /// Builds a BVH over `items` and returns them in the BVH's order, so the
     /// index the intersection closures receive indexes the returned vector.
+    /// The items are reordered in place: besides the hierarchy, the build
+    /// holds one [`PrimInfo`] per item while it partitions and one `u32` per
+    /// item after, never a second copy of the items.
     pub fn build_over<T>(
-        items: Vec<T>,
+        mut items: Vec<T>,
         bounds: impl Fn(&T) -> Bounds3f,
         max_prims_in_node: usize,
     ) -> (Bvh, Vec<T>) {
-        let b: Vec<Bounds3f> = items.iter().map(bounds).collect();
-        let (bvh, order) = Bvh::build(&b, max_prims_in_node);
-        let mut slots: Vec<Option<T>> = items.into_iter().map(Some).collect();
-        let ordered = order.iter().filter_map(|&i| slots[i as usize].take()).collect();
-        (bvh, ordered)
+        let info = items
+            .iter()
+            .enumerate()
+            .map(|(i, t)| PrimInfo { bounds: bounds(t), index: i as u32 })
+            .collect();
+        let (bvh, order) = Bvh::build_info(info, max_prims_in_node);
+        permute(&mut items, order);
+        (bvh, items)
     }
 
     /// Builds the hierarchy over `prim_bounds` with at most
@@ -256,20 +285,34 @@ impl Bvh {
     /// which is what the intersection closures receive. The result depends
     /// only on the input, not on thread scheduling.
     pub fn build(prim_bounds: &[Bounds3f], max_prims_in_node: usize) -> (Bvh, Vec<u32>) {
-        let mut info: Vec<PrimInfo> = prim_bounds
+        let info = prim_bounds
             .iter()
             .enumerate()
             .map(|(i, b)| PrimInfo { bounds: *b, index: i as u32 })
             .collect();
-        // A binary tree with non-empty leaves has at most 2n - 1 nodes.
-        let mut nodes = Vec::with_capacity((2 * prim_bounds.len()).saturating_sub(1));
+        Bvh::build_info(info, max_prims_in_node)
+    }
+
+    /// [`Bvh::build`] over the primitives' bounds and indices, which it
+    /// consumes: they are freed before the binary tree is collapsed, and the
+    /// binary tree before the result is returned.
+    fn build_info(mut info: Vec<PrimInfo>, max_prims_in_node: usize) -> (Bvh, Vec<u32>) {
+        // A binary tree with leaves of one primitive or more has at most
+        // 2n - 1 nodes; the capacity not used is never touched, so it costs
+        // address space, not memory.
+        let mut nodes = Vec::with_capacity((2 * info.len()).saturating_sub(1));
         if !info.is_empty() {
             let max_prims = max_prims_in_node.clamp(1, 255);
             let ext = Extent::of(&info);
             build_node(&mut info, 0, 0, max_prims, ext, &mut nodes);
         }
+        let order = info.iter().map(|p| p.index).collect();
+        drop(info);
         let bounds = nodes.first().map_or(Bounds3f::default(), LinearNode::bounds);
-        (Bvh { nodes: collapse(&nodes), bounds }, info.iter().map(|p| p.index).collect())
+        let mut wide = collapse(&nodes);
+        drop(nodes);
+        wide.shrink_to_fit();
+        (Bvh { nodes: wide, bounds }, order)
     }
 
     /// Bounds of everything (empty for an empty hierarchy).
@@ -539,6 +582,63 @@ mod tests {
                 assert!(bvh.intersect(&ray, |_, _| Some(1.0)), "axis {axis}, face {face}");
                 assert_eq!(visited.len(), 1);
             }
+        }
+    }
+
+    /// The in-place reordering gathers each place's item, for permutations
+    /// of every cycle structure (the identity, one long cycle, swaps,
+    /// random ones).
+    #[test]
+    fn permute_gathers_in_place() {
+        let mut rng = Rng::new(8);
+        let mut orders: Vec<Vec<u32>> =
+            vec![vec![], vec![0], (0..9).collect(), (0..9).rev().collect()];
+        orders.push((1..50).chain([0]).collect());
+        for n in [2u32, 17, 1000] {
+            let mut o: Vec<u32> = (0..n).collect();
+            for i in (1..o.len()).rev() {
+                o.swap(i, rng.uniform_u32_below(i as u32 + 1) as usize);
+            }
+            orders.push(o);
+        }
+        for order in orders {
+            let mut items: Vec<String> = (0..order.len()).map(|i| format!("item {i}")).collect();
+            let expected: Vec<String> = order.iter().map(|&i| format!("item {i}")).collect();
+            permute(&mut items, order);
+            assert_eq!(items, expected);
+        }
+    }
+
+    /// Subtrees of at most `max_prims` primitives are single leaves: every
+    /// interior lane of the 4-wide tree holds more than that.
+    #[test]
+    fn small_subtrees_are_single_leaves() {
+        fn prims_under(bvh: &Bvh, node: usize) -> usize {
+            let n = &bvh.nodes[node];
+            (0..n.n as usize)
+                .map(|l| match n.count[l] {
+                    0 => prims_under(bvh, n.child[l] as usize),
+                    c => c as usize,
+                })
+                .sum()
+        }
+        let mut rng = Rng::new(12);
+        for max_prims in [1, 2, 4, 8] {
+            let prims = random_prims(&mut rng, 3000);
+            let (bvh, _) =
+                Bvh::build(&prims.iter().map(Prim::bounds).collect::<Vec<_>>(), max_prims);
+            assert_eq!(prims_under(&bvh, 0), 3000);
+            let mut leaves = 0;
+            for node in &bvh.nodes {
+                for l in 0..node.n as usize {
+                    if node.count[l] == 0 {
+                        assert!(prims_under(&bvh, node.child[l] as usize) > max_prims);
+                    } else {
+                        leaves += 1;
+                    }
+                }
+            }
+            assert!(leaves < 3000 || max_prims == 1, "leaves hold several primitives");
         }
     }
 

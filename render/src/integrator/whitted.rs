@@ -40,7 +40,8 @@ impl Whitted {
         };
 
         // Surfaces without a material only bound media: continue through them.
-        let Some(material) = prim.material.and_then(|m| scene.materials.get(m as usize)) else {
+        let Some(material) = prim.material.get().and_then(|m| scene.materials.get(m as usize))
+        else {
             stats.secondary_rays += 1;
             let mut next = *ray;
             next.ray = si.spawn_ray(ray.ray.d);
@@ -59,7 +60,7 @@ impl Whitted {
 
         // Emitted light if the hit is on an area light.
         let mut l = Spectrum::ZERO;
-        if let Some(id) = prim.area_light {
+        if let Some(id) = prim.area_light.get() {
             if let Some(crate::lights::Light::Area(area)) = scene.lights.get(id as usize) {
                 l += area.l(si.n(), wo);
             }

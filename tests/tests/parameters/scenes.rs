@@ -288,7 +288,7 @@ pub(crate) fn companion(function: &str, name: &str) -> &'static str {
 pub(crate) fn build(dir: &Path, text: &str) -> Result<(Vec<Warning>, Vec<Lookup>), String> {
     let (parsed, mut lookups) = record_lookups(|| farm_scene::parse_str(text, "params.pbrt", dir));
     let (desc, mut warnings) = parsed.map_err(|e| e.to_string())?;
-    let (built, more) = record_lookups(|| Renderer::new(&desc, &RenderOptions::default()));
+    let (built, more) = record_lookups(|| Renderer::new(desc, &RenderOptions::default()));
     lookups.extend(more);
     let (_, w) = built.map_err(|e| e.to_string())?;
     warnings.extend(w);

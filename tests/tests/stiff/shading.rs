@@ -50,7 +50,7 @@ fn slab(material: &str) -> String {
 /// The scene `source` describes, ready for rays.
 fn build(source: &str) -> Renderer {
     let (desc, _) = parse_str(source, "scene.pbrt", Path::new("")).expect("parse");
-    Renderer::new(&desc, &RenderOptions::default()).expect("build").0
+    Renderer::new(desc, &RenderOptions::default()).expect("build").0
 }
 
 /// Where the camera ray through the middle of the film first hits the
