@@ -132,7 +132,7 @@ impl World {
         }
 
         let aggregate = Aggregate::new(prims, max_prims);
-        let (instance_bvh, instances) = Bvh::build_over(instances, Instance::bounds, 1);
+        let (instance_bvh, instances) = Bvh::build_over(instances, Instance::bounds, |_| false, 1);
         let bounds = aggregate.bounds().union(&instance_bvh.bounds());
 
         let (center, radius) =

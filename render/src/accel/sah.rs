@@ -91,6 +91,24 @@ impl Extent {
     }
 }
 
+/// What a build is asked for.
+pub(super) struct Limits<'a> {
+    /// pbrt-v3's `maxnodeprims`.
+    pub(super) max_prims: usize,
+    /// Which primitives (by original index) are cheap to test, as a
+    /// triangle is against a box; `None`: all are.
+    pub(super) cheap: Option<&'a [bool]>,
+}
+
+impl Limits<'_> {
+    /// Whether the primitives of `info` may share one leaf rather than each
+    /// sit behind its own box: at most `max_prims` of them, all cheap.
+    fn one_leaf(&self, info: &[PrimInfo]) -> bool {
+        info.len() <= self.max_prims
+            && self.cheap.is_none_or(|c| info.iter().all(|p| c[p.index as usize]))
+    }
+}
+
 /// Appends the subtree over `info` (primitives `base..base + info.len()`
 /// of the final order, with extent `ext`) to `nodes`, depth first, and
 /// reorders `info`.
@@ -98,10 +116,11 @@ pub(super) fn build_node(
     info: &mut [PrimInfo],
     base: u32,
     depth: u32,
-    max_prims: usize,
+    limits: &Limits,
     ext: Extent,
     nodes: &mut Vec<LinearNode>,
 ) {
+    let max_prims = limits.max_prims;
     let n = info.len();
     let bounds = ext.bounds();
     let leaf = |nodes: &mut Vec<LinearNode>| nodes.push(LinearNode::new(&bounds, base, n as u16));
@@ -135,23 +154,24 @@ pub(super) fn build_node(
     if n > PARALLEL_THRESHOLD && rayon::current_num_threads() > 1 {
         let (mut ln, mut rn) = (Vec::new(), Vec::new());
         rayon::join(
-            || build_node(left, base, depth + 1, max_prims, left_ext, &mut ln),
-            || build_node(right, right_base, depth + 1, max_prims, right_ext, &mut rn),
+            || build_node(left, base, depth + 1, limits, left_ext, &mut ln),
+            || build_node(right, right_base, depth + 1, limits, right_ext, &mut rn),
         );
         append_shifted(nodes, &ln);
         nodes[me].offset = nodes.len() as u32;
         append_shifted(nodes, &rn);
     } else {
-        build_node(left, base, depth + 1, max_prims, left_ext, nodes);
+        build_node(left, base, depth + 1, limits, left_ext, nodes);
         nodes[me].offset = nodes.len() as u32;
-        build_node(right, right_base, depth + 1, max_prims, right_ext, nodes);
+        build_node(right, right_base, depth + 1, limits, right_ext, nodes);
     }
-    // A subtree of at most `max_prims` primitives (the SAH mostly splits
-    // down to one a leaf) becomes one leaf: its primitives are now in the
-    // order pbrt-v3's splits put them, and the 4-wide tree tests them
-    // together rather than boxing each. A quarter of the nodes for a mesh,
-    // and half the build's memory.
-    if n <= max_prims {
+    // A subtree of at most `max_prims` cheap primitives (the SAH mostly
+    // splits down to one a leaf) becomes one leaf: its primitives are now
+    // in the order pbrt-v3's splits put them, and the 4-wide tree tests
+    // them together rather than boxing each. For a mesh, a quarter of the
+    // nodes and half the build's memory. Costly shapes (spheres, curves)
+    // keep their own boxes, which cull most of their tests.
+    if limits.one_leaf(info) {
         nodes.truncate(me);
         leaf(nodes);
     }
