@@ -85,10 +85,17 @@ impl Aggregate {
     /// Builds the BVH, with at most `max_prims` primitives in a leaf, and
     /// stores the primitives in its order.
     pub fn new(prims: Vec<Primitive>, max_prims: usize) -> Self {
-        let share = prims.len() >= SHARED_LEAVES_FROM;
-        let (bvh, prims) =
-            Bvh::build_over(prims, |p| p.shape.bounds(), |p| share && p.cheap(), max_prims);
+        let share = Aggregate::shares_leaf(prims.len());
+        let (bvh, prims) = Bvh::build_over(prims, |p| p.shape.bounds(), share, max_prims);
         Aggregate { prims, bvh }
+    }
+
+    /// Which of `count` primitives built into one BVH may share its leaves
+    /// (the `cheap` test [`Bvh::build_over`] takes): triangles, in
+    /// aggregates of at least [`SHARED_LEAVES_FROM`].
+    pub fn shares_leaf(count: usize) -> impl Fn(&Primitive) -> bool + Copy {
+        let large = count >= SHARED_LEAVES_FROM;
+        move |p| large && p.cheap()
     }
 
     /// Bounds of everything inside.

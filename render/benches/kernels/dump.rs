@@ -13,7 +13,6 @@
 //! is the same number in both programs.
 
 use super::*;
-use farm_render::primitive::SHARED_LEAVES_FROM;
 use std::io::Write;
 use std::path::Path;
 use std::time::Instant;
@@ -62,9 +61,8 @@ pub fn run(dir: &Path) {
         // The same build over the same primitives (Aggregate::new's own
         // call), walked with the hit test alone, no surface interaction:
         // the bare traversal.
-        let share = prims.len() >= SHARED_LEAVES_FROM;
-        let cheap = |p: &Primitive| share && p.cheap();
-        let (bare, ordered) = Bvh::build_over(prims, |p| p.shape.bounds(), cheap, max);
+        let share = Aggregate::shares_leaf(prims.len());
+        let (bare, ordered) = Bvh::build_over(prims, |p| p.shape.bounds(), share, max);
         let tris: Vec<&farm_render::shapes::Triangle> = ordered
             .iter()
             .map(|p| match &p.shape {
