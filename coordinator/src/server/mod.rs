@@ -25,9 +25,12 @@ use tonic::service::interceptor::InterceptedService;
 use tonic::transport::server::TcpIncoming;
 use tonic::transport::{Identity, ServerTlsConfig};
 
-/// How often live watchers are sent what changed (pbrt-v4 updates tev
-/// every 250 ms).
-pub const LIVE_EVERY: Duration = Duration::from_millis(250);
+/// How often live watchers are sent what changed. pbrt-v4 updates tev
+/// every 250 ms from the rendering process itself; here every update wakes
+/// the event loop, the watcher's stream and its HTTP/2 connection, so a
+/// farm's watchers are sent one a second (an embedded render still shows
+/// tev its changes every 250 ms, `farm_cli::display::INTERVAL`).
+pub const LIVE_EVERY: Duration = Duration::from_millis(1000);
 
 /// Settings of a coordinator.
 #[derive(Clone, Debug)]
