@@ -21,6 +21,8 @@ pub struct ConvergeOptions {
     pub reference: Option<PathBuf>,
     /// Render threads (0 = one per core).
     pub threads: usize,
+    /// A sampler to render with instead of the scene's.
+    pub sampler: Option<String>,
 }
 
 /// One render of the series.
@@ -75,7 +77,9 @@ pub fn run(
         None => None,
     };
     let render = |spp: Option<u32>, progress: &mut dyn FnMut(u32, &Progress)| {
-        let o = SubmitOptions { spp, threads: opts.threads, ..Default::default() };
+        let overrides =
+            farm_scene::Overrides { sampler: opts.sampler.clone(), ..Default::default() };
+        let o = SubmitOptions { spp, threads: opts.threads, overrides, ..Default::default() };
         let label = spp.unwrap_or(0);
         embedded::render(scene, &o, |p| progress(label, p))
     };

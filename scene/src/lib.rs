@@ -31,7 +31,7 @@ mod tests;
 pub use assets::is_outside;
 pub use error::{Result, SceneError};
 use farm_common::scene::{FileLoc, SceneDescription, Warning};
-pub use overrides::Overrides;
+pub use overrides::{Overrides, SAMPLER_NAMES};
 use std::path::Path;
 pub use write::{write_scene, Meshes};
 

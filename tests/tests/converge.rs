@@ -28,6 +28,7 @@ fn the_self_estimate_is_within_twice_the_true_error_from_4_spp_up() {
             spp: counts.to_vec(),
             reference: Some(reference.clone()),
             threads: 0,
+            sampler: None,
         };
         let path = shared.join("scenes").join(scene).join(file);
         let series = converge::run(&path, &opts, |_, _| {}).expect("series renders");

@@ -25,6 +25,10 @@ pub struct ConvergeArgs {
     /// Render threads (default: one per core).
     #[arg(long, default_value_t = 0)]
     pub threads: usize,
+    /// Render with this sampler instead of the scene's (see `farm submit
+    /// --sampler`).
+    #[arg(long, value_name = "NAME", value_parser = clap::builder::PossibleValuesParser::new(farm_scene::SAMPLER_NAMES))]
+    pub sampler: Option<String>,
     /// Print nothing but errors.
     #[arg(short, long)]
     pub quiet: bool,
@@ -38,6 +42,7 @@ pub fn run(args: &ConvergeArgs) -> ExitCode {
         spp: args.spp.clone(),
         reference: args.reference.clone(),
         threads: args.threads,
+        sampler: args.sampler.clone(),
     };
     let bar = crate::progress::progress_bar(args.quiet);
     let mut current = None;

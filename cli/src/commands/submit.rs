@@ -40,6 +40,10 @@ pub struct SubmitArgs {
     /// per pixel (pbrt-v3's --quick; the random sampler keeps its count).
     #[arg(long)]
     pub quick: bool,
+    /// Render with this sampler instead of the scene's, at the scene's
+    /// sample count (or --spp's).
+    #[arg(long, value_name = "NAME", value_parser = clap::builder::PossibleValuesParser::new(farm_scene::SAMPLER_NAMES))]
+    pub sampler: Option<String>,
     /// Stream the image to this display server as it renders (tev, which
     /// listens on port 14158; pbrt-v4's flag), embedded or on the farm.
     #[arg(long, value_name = "HOST:PORT")]
@@ -214,6 +218,7 @@ fn overrides(args: &SubmitArgs) -> farm_scene::Overrides {
     farm_scene::Overrides {
         crop_window: args.cropwindow.as_deref().map(|c| [c[0], c[1], c[2], c[3]]),
         quick: args.quick,
+        sampler: args.sampler.clone(),
     }
 }
 
