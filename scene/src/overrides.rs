@@ -67,7 +67,7 @@ impl Overrides {
 
 /// Puts the sampler `name` in place of the scene's, with the scene's
 /// sample count as pbrt-v3 reads it (the stratified sampler's strata
-/// factored as `--spp` factors a count: the widest grid no wider than tall).
+/// factored as `--spp` factors a count, `stratified_grid`).
 fn switch_sampler(desc: &mut SceneDescription, name: &str) {
     if desc.sampler.name == name {
         return;
@@ -81,11 +81,7 @@ fn switch_sampler(desc: &mut SceneDescription, name: &str) {
     s.name = name.to_string();
     s.params = Default::default();
     if name == "stratified" {
-        let mut nx = (count as f64).sqrt() as usize;
-        while nx > 1 && !count.is_multiple_of(nx) {
-            nx -= 1;
-        }
-        let ny = count / nx.max(1);
+        let (nx, ny) = farm_common::film::stratified_grid(count);
         for (n, v) in [("xsamples", nx), ("ysamples", ny)] {
             s.params.add(param(n, ParamValue::Int(vec![v as i32]), &loc));
         }

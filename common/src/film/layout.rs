@@ -315,17 +315,23 @@ pub fn sample_count(
             let mut xs = params.int("xsamples", 4).max(1) as usize;
             let mut ys = params.int("ysamples", 4).max(1) as usize;
             if let Some(n) = spp_override {
-                let n = n.max(1) as usize;
-                xs = (n as f64).sqrt() as usize;
-                while xs > 1 && n / xs * xs != n {
-                    xs -= 1;
-                }
-                ys = n / xs;
+                (xs, ys) = stratified_grid(n as usize);
             }
             return (kind, (xs * ys) as i64, (xs, ys));
         }
     };
     (kind, n, (n.max(0) as usize, 1))
+}
+
+/// The strata across and down a pixel for `n` stratified samples: the
+/// widest grid no wider than tall whose cells are exactly `n`.
+pub fn stratified_grid(n: usize) -> (usize, usize) {
+    let n = n.max(1);
+    let mut xs = (n as f64).sqrt() as usize;
+    while xs > 1 && n / xs * xs != n {
+        xs -= 1;
+    }
+    (xs, n / xs)
 }
 
 #[cfg(test)]

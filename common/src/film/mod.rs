@@ -7,7 +7,8 @@ mod tiling;
 
 pub use layout::{
     checked_layout, default_filter_radius, filter_radius, is_power_of_2, layout, round_up_pow2,
-    sample_count, FilmError, FilmLayout, Halves, Limits, SamplerKind, MAX_MIN_DIST_MAX_SPP,
+    sample_count, stratified_grid, FilmError, FilmLayout, Halves, Limits, SamplerKind,
+    MAX_MIN_DIST_MAX_SPP,
 };
 pub use tile::{resolve, FilmTile, Pixel};
 pub use tiling::{FilmGeometry, TILE_SIZE};
