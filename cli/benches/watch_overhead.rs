@@ -12,7 +12,7 @@
 //! The farm is real processes on loopback: an insecure coordinator, two
 //! workers of one thread, `farm submit --coordinator`. The "dashboard" is
 //! this program making the requests a job page's script makes: the live
-//! image every second and the job's facts every two, and the finished
+//! image every second and the job's facts every five, and the finished
 //! image once the render ends. The coordinator's CPU is read a few seconds
 //! after both, once the journal has also finished with the job.
 //!
@@ -85,6 +85,48 @@ fn cpu_seconds(pid: u32) -> f64 {
         }
     }
     ns as f64 * 1e-9
+}
+
+/// Where a process's CPU time went, from /proc: system time (in the
+/// kernel's 10 ms ticks, so only a median over renders means much),
+/// context switches of all its threads and minor page faults.
+#[derive(Clone, Copy, Default)]
+struct Kernel {
+    sys: f64,
+    switches: u64,
+    faults: u64,
+}
+
+impl std::ops::Sub for Kernel {
+    type Output = Kernel;
+    fn sub(self, o: Kernel) -> Kernel {
+        Kernel {
+            sys: self.sys - o.sys,
+            switches: self.switches.saturating_sub(o.switches),
+            faults: self.faults.saturating_sub(o.faults),
+        }
+    }
+}
+
+fn kernel(pid: u32) -> Kernel {
+    let stat = std::fs::read_to_string(format!("/proc/{pid}/stat")).unwrap_or_default();
+    // The fields after the command's closing parenthesis: minflt is the
+    // 10th field of the line, stime the 15th.
+    let rest: Vec<&str> =
+        stat.rsplit_once(')').map(|(_, r)| r.split_whitespace().collect()).unwrap_or_default();
+    let field = |n: usize| rest.get(n - 3).and_then(|v| v.parse::<u64>().ok()).unwrap_or(0);
+    let mut switches = 0;
+    if let Ok(tasks) = std::fs::read_dir(format!("/proc/{pid}/task")) {
+        for t in tasks.flatten() {
+            let s = std::fs::read_to_string(t.path().join("status")).unwrap_or_default();
+            switches += s
+                .lines()
+                .filter(|l| l.contains("ctxt_switches:"))
+                .filter_map(|l| l.split_whitespace().nth(1)?.parse::<u64>().ok())
+                .sum::<u64>();
+        }
+    }
+    Kernel { sys: field(15) as f64 / 100.0, switches, faults: field(10) }
 }
 
 /// A browser's connection: HTTP/1.1 kept alive between requests.
@@ -172,7 +214,7 @@ fn dashboard(addr: String, stop: Arc<AtomicBool>) -> std::thread::JoinHandle<u64
             if last {
                 break;
             }
-            if last_facts.elapsed() >= Duration::from_secs(2) {
+            if last_facts.elapsed() >= Duration::from_secs(5) {
                 browser.get(&format!("/fragments/job/{job}"));
                 requests += 1;
                 last_facts = Instant::now();
@@ -217,6 +259,7 @@ struct Run {
     instructions: Option<u64>,
     tev_bytes: u64,
     requests: u64,
+    kernel: Kernel,
 }
 
 /// The coordinator under callgrind: its process and where it dumps.
@@ -288,6 +331,7 @@ fn render(
         cg.zero();
     }
     let cpu0 = cpu_seconds(coord);
+    let k0 = kernel(coord);
     let t0 = Instant::now();
     let mut cmd = on_cpu(1, farm());
     cmd.args(["submit", "--quiet", "--coordinator", url, "--spp", &spp.to_string(), "-o"])
@@ -308,8 +352,9 @@ fn render(
     // modes, so neither is cut short.
     std::thread::sleep(Duration::from_secs(if cg.is_some() { 5 } else { 2 }));
     let cpu = cpu_seconds(coord) - cpu0;
+    let kernel = kernel(coord) - k0;
     let instructions = cg.map(Callgrind::dump);
-    Run { wall, cpu, instructions, tev_bytes: bytes.load(Ordering::Relaxed), requests }
+    Run { wall, cpu, instructions, tev_bytes: bytes.load(Ordering::Relaxed), requests, kernel }
 }
 
 /// glibc's settings that keep `memcpy` and `memset` in their vector
@@ -467,6 +512,15 @@ fn main() {
         "median of the pairs' ratios: wall {:.3}, coordinator CPU {:.3}",
         pairs(|r| r.wall),
         pairs(|r| r.cpu)
+    );
+    println!(
+        "median system time {:.2}s / {:.2}s, context switches {:.0} / {:.0}, page faults {:.0} / {:.0} (plain / watched)",
+        m(&plain, |r| r.kernel.sys),
+        m(&watched, |r| r.kernel.sys),
+        m(&plain, |r| r.kernel.switches as f64),
+        m(&watched, |r| r.kernel.switches as f64),
+        m(&plain, |r| r.kernel.faults as f64),
+        m(&watched, |r| r.kernel.faults as f64),
     );
     if callgrind {
         let (pi, wi) = (

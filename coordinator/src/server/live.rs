@@ -5,8 +5,9 @@ use super::outbox::GrpcOutbox;
 use crate::live::shift;
 use crate::scheduler::{FinishedJob, JobUpdate, Scheduler, Snapshot};
 use farm_common::film::FilmGeometry;
+use farm_common::geometry::Bounds2i;
 use farm_common::ids::JobId;
-use farm_proto::convert::preview_region;
+use farm_proto::convert::push_piece;
 use farm_proto::v1::{self, job_event};
 use std::collections::{HashMap, VecDeque};
 use std::sync::Arc;
@@ -140,12 +141,20 @@ pub(super) fn send_live(sched: &Scheduler, out: &mut GrpcOutbox) {
             if regions.is_empty() {
                 return true;
             }
-            let regions = regions
-                .into_iter()
-                .map(|r| preview_region(r, film.region_sums(shift(r, b.min.x, b.min.y))))
-                .collect();
             let (width, height) = (b.width() as u32, b.height() as u32);
-            let preview = v1::JobPreview { width, height, scale: film.geometry().scale, regions };
+            let pixels: usize = regions.iter().map(Bounds2i::area).sum();
+            let mut preview = v1::JobPreview {
+                width,
+                height,
+                scale: film.geometry().scale,
+                bounds: Vec::with_capacity(regions.len() * 4),
+                sums: Vec::with_capacity(pixels * 16),
+            };
+            for r in regions {
+                push_piece(&mut preview, r, |out| {
+                    film.write_region_sums(shift(r, b.min.x, b.min.y), out)
+                });
+            }
             let ev = v1::JobEvent { kind: Some(job_event::Kind::Preview(preview)) };
             !matches!(tx.try_send(Ok(ev)), Err(mpsc::error::TrySendError::Closed(_)))
         });

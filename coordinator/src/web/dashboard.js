@@ -27,14 +27,37 @@ function alertBar(text) {
   bar.textContent = text;
 }
 
+// Fetches a server-rendered fragment again; false if signed out.
+async function refreshFragment(el) {
+  try {
+    const r = await fetch(el.dataset.fragment, { cache: "no-store" });
+    if (r.status === 401) { location.href = "/signin"; return false; }
+    if (r.ok) el.innerHTML = await r.text();
+  } catch (e) { /* the coordinator restarts: try again at the next tick */ }
+  return true;
+}
+
 async function refreshFragments() {
   for (const el of document.querySelectorAll("[data-fragment]")) {
-    try {
-      const r = await fetch(el.dataset.fragment, { cache: "no-store" });
-      if (r.status === 401) { location.href = "/signin"; return; }
-      if (r.ok) el.innerHTML = await r.text();
-    } catch (e) { /* the coordinator restarts: try again at the next tick */ }
+    if (!(await refreshFragment(el))) return;
   }
+}
+
+// Each fragment refreshes on its own period (data-every, in ms): every two
+// seconds, or every five for a job's facts, whose tiles count the live
+// image keeps up to date in between.
+function startFragments() {
+  for (const el of document.querySelectorAll("[data-fragment]")) {
+    setInterval(() => refreshFragment(el), Number(el.dataset.every) || 2000);
+  }
+}
+
+// The job's tiles done, from the live image's answer, between refreshes.
+function showMerged(done) {
+  const bar = document.querySelector(".facts progress");
+  if (!bar || !(done > bar.value)) return;
+  bar.value = done;
+  if (bar.nextSibling) bar.nextSibling.textContent = ` ${done}/${bar.max}`;
 }
 
 document.addEventListener("click", (ev) => {
@@ -135,6 +158,7 @@ function startLive(box) {
     if (n > 0) image.dataset.updates = String(++updates);
     from = next;
     merged = done;
+    showMerged(done);
     if (state === 1) { image.dataset.done = "1"; return null; }
     return state === 3 ? 0 : 1000;
   }
@@ -142,7 +166,7 @@ function startLive(box) {
 }
 
 window.addEventListener("DOMContentLoaded", () => {
-  setInterval(refreshFragments, 2000);
+  startFragments();
   const box = document.querySelector("[data-live]");
   if (box) startLive(box);
 });

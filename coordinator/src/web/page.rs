@@ -232,7 +232,7 @@ pub(super) async fn job(
     };
     let body = format!(
         r#"<h1>Job {id}: {name}</h1>
-<section data-fragment="/fragments/job/{id}">{facts}</section>
+<section data-fragment="/fragments/job/{id}" data-every="5000">{facts}</section>
 <div class="pictures" data-live="/api/jobs/{id}/live">
 <figure><canvas id="image" width="{w}" height="{h}"></canvas><figcaption>Image</figcaption></figure>
 <figure><canvas id="error" width="{w}" height="{h}"></canvas><figcaption>Estimated relMSE per pixel (log scale, 1e-5 black to 1 white)</figcaption></figure>
