@@ -12,7 +12,8 @@
 //! The farm is real processes on loopback: an insecure coordinator, two
 //! workers of one thread, `farm submit --coordinator`. The "dashboard" is
 //! this program making the requests a job page's script makes: the live
-//! image every second and the job's facts every five, and the finished
+//! image at its pace (a look per 32 tiles merged, one to five seconds
+//! apart) and the job's facts every five seconds, and the finished
 //! image once the render ends. The coordinator's CPU is read a few seconds
 //! after both, once the journal has also finished with the job.
 //!
@@ -196,6 +197,7 @@ fn dashboard(addr: String, stop: Arc<AtomicBool>) -> std::thread::JoinHandle<u64
         };
         browser.get(&format!("/jobs/{job}"));
         let (mut cursor, mut merged, mut last_facts) = (0u32, 0u32, Instant::now());
+        let (mut last_look, mut merged_at_look, mut more) = (Instant::now(), 0u32, false);
         loop {
             // Once the render has ended, one more look fetches the
             // finished image, as the page does.
@@ -206,7 +208,8 @@ fn dashboard(addr: String, stop: Arc<AtomicBool>) -> std::thread::JoinHandle<u64
                 let word =
                     |i: usize| u32::from_le_bytes([body[i], body[i + 1], body[i + 2], body[i + 3]]);
                 (cursor, merged) = (word(8), word(12));
-                if word(16) != 0 {
+                more = word(16) == 3;
+                if word(16) != 0 && !more {
                     // Done (or ended): the page stops looking, as the script does.
                     break;
                 }
@@ -219,8 +222,17 @@ fn dashboard(addr: String, stop: Arc<AtomicBool>) -> std::thread::JoinHandle<u64
                 requests += 1;
                 last_facts = Instant::now();
             }
+            if more {
+                continue;
+            }
+            // The script's pace (`nextLook`): a look per 32 tiles merged,
+            // between one and five seconds apart.
+            let rate = f64::from(merged.saturating_sub(merged_at_look))
+                / last_look.elapsed().as_secs_f64().max(1e-3);
+            (last_look, merged_at_look) = (Instant::now(), merged);
+            let wait = if rate > 0.0 { (32.0 / rate).clamp(1.0, 5.0) } else { 5.0 };
             let t = Instant::now();
-            while t.elapsed() < Duration::from_secs(1) && !stop.load(Ordering::Relaxed) {
+            while t.elapsed().as_secs_f64() < wait && !stop.load(Ordering::Relaxed) {
                 std::thread::sleep(Duration::from_millis(20));
             }
         }

@@ -94,6 +94,12 @@ impl LiveCursor {
         !self.pending.is_empty()
     }
 
+    /// Catches up with `film` and counts the pixels waiting to be sent.
+    pub fn waiting(&mut self, film: &Film) -> usize {
+        self.catch_up(film);
+        self.pending.iter().map(Bounds2i::area).sum()
+    }
+
     /// Takes changed regions (image coordinates), oldest first: at least
     /// one, and no more once they hold `max_pixels`. The rest wait for the
     /// next look. The caller reads them off the film as they stand now.

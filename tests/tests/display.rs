@@ -110,3 +110,57 @@ async fn on_the_farm_tev_sees_the_image_as_it_renders_and_ends_on_the_written_on
     assert!(updates > 36, "only {updates} updates: no live preview reached tev");
     cluster.stop().await;
 }
+
+/// A farm's live watchers are paced by the work an update shows: each
+/// preview carries at least 32 tiles' worth of new pixels (a quarter of a
+/// small film), unless 5 s passed since the one before. One worker of one
+/// thread merges fewer than 32 tiles a second here, so previews sent each
+/// second regardless would fail this.
+#[tokio::test(flavor = "multi_thread", worker_threads = 4)]
+async fn live_previews_come_in_batches_worth_sending() {
+    use farm_cli::client::{self, RemoteOptions};
+    use farm_coordinator::server::{LIVE_AT_MOST_EVERY, LIVE_BATCH_PIXELS};
+    use farm_proto::v1::{self, job_event::Kind};
+    use std::time::{Duration, Instant};
+    let cluster =
+        farm_tests::cluster::TestCluster::start(1, std::time::Duration::from_millis(500)).await;
+    let remote = cluster.remote();
+    let opts = RemoteOptions { spp: Some(64), detach: true, ..Default::default() };
+    let job = client::start(&remote, &scene(), &opts).await.expect("submit").job;
+    let mut c = client::connect(&remote).await.expect("connect");
+    let mut events = c
+        .watch_job(v1::WatchJobRequest { job_id: job, live: true })
+        .await
+        .expect("watch")
+        .into_inner();
+    let (mut previews, mut last, mut image) = (Vec::new(), Instant::now(), 0usize);
+    while let Some(ev) = events.message().await.expect("the stream") {
+        match ev.kind {
+            Some(Kind::Preview(p)) => {
+                let pixels: usize = p
+                    .bounds
+                    .chunks_exact(4)
+                    .map(|b| ((b[2] - b[0]) * (b[3] - b[1])) as usize)
+                    .sum();
+                assert_eq!(pixels * 16, p.sums.len());
+                image = (p.width * p.height) as usize;
+                previews.push((pixels, last.elapsed()));
+                last = Instant::now();
+            }
+            Some(Kind::Image(_)) | Some(Kind::Failed(_)) => break,
+            _ => {}
+        }
+    }
+    assert!(previews.len() >= 3, "only {} previews", previews.len());
+    let batch = LIVE_BATCH_PIXELS.min(image / 4);
+    // Times are taken on arrival, so a late delivery can make the gap
+    // before the next one look shorter.
+    let slack = Duration::from_secs(2);
+    for (i, &(pixels, gap)) in previews.iter().enumerate().skip(1) {
+        assert!(
+            pixels >= batch || gap + slack >= LIVE_AT_MOST_EVERY,
+            "preview {i}: {pixels} pixels after {gap:?} (batch {batch})"
+        );
+    }
+    cluster.stop().await;
+}

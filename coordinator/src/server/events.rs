@@ -211,7 +211,7 @@ pub async fn run(mut rx: mpsc::UnboundedReceiver<Event>, config: ServerConfig, s
                     if !last {
                         out.watchers.entry(job).or_default().push(tx);
                         if let Some(live) = live {
-                            out.live.entry(job).or_default().push((live, LiveCursor::new()));
+                            out.live.entry(job).or_default().push((live, LiveCursor::new(), now));
                         }
                     }
                     let _ = reply.send(true);
@@ -221,7 +221,7 @@ pub async fn run(mut rx: mpsc::UnboundedReceiver<Event>, config: ServerConfig, s
                 }
             },
             Event::LiveTick => {
-                send_live(&sched, &mut out);
+                send_live(&sched, &mut out, now);
                 out.recent.expire(now);
             }
             Event::Views { reply } => {

@@ -2,6 +2,7 @@
 //! live `WatchJob` streams each tick, and a dashboard page's look at a job.
 
 use super::outbox::GrpcOutbox;
+use super::{LIVE_AT_MOST_EVERY, LIVE_BATCH_PIXELS};
 use crate::live::shift;
 use crate::scheduler::{FinishedJob, JobUpdate, Scheduler, Snapshot};
 use farm_common::film::FilmGeometry;
@@ -124,16 +125,22 @@ pub(super) fn live_answer(
 
 /// Sends each live watcher the pieces that changed since it last took
 /// some, if it has room for them: one event a tick at most, so a reader
-/// that falls behind is sent larger catch-ups, never a queue.
-pub(super) fn send_live(sched: &Scheduler, out: &mut GrpcOutbox) {
+/// that falls behind is sent larger catch-ups, never a queue; and only
+/// once [`LIVE_BATCH_PIXELS`] wait or [`LIVE_AT_MOST_EVERY`] has passed.
+pub(super) fn send_live(sched: &Scheduler, out: &mut GrpcOutbox, now: Instant) {
     out.live.retain(|job, list| {
         let Some(film) = sched.film(*job) else { return false };
         let b = film.geometry().cropped_pixel_bounds;
-        list.retain_mut(|(tx, cursor)| {
+        list.retain_mut(|(tx, cursor, sent)| {
             if tx.is_closed() {
                 return false;
             }
             if tx.capacity() == 0 {
+                return true;
+            }
+            // A small film's batch is a quarter of it.
+            let batch = LIVE_BATCH_PIXELS.min(b.area() / 4).max(1);
+            if cursor.waiting(film) < batch && now.duration_since(*sent) < LIVE_AT_MOST_EVERY {
                 return true;
             }
             // tev is shown the error map of the finished image only.
@@ -156,6 +163,7 @@ pub(super) fn send_live(sched: &Scheduler, out: &mut GrpcOutbox) {
                 });
             }
             let ev = v1::JobEvent { kind: Some(job_event::Kind::Preview(preview)) };
+            *sent = now;
             !matches!(tx.try_send(Ok(ev)), Err(mpsc::error::TrySendError::Closed(_)))
         });
         !list.is_empty()

@@ -32,6 +32,14 @@ use tonic::transport::{Identity, ServerTlsConfig};
 /// tev its changes every 250 ms, `farm_cli::display::INTERVAL`).
 pub const LIVE_EVERY: Duration = Duration::from_millis(1000);
 
+/// A live watcher is sent an update once this many of its pixels (32
+/// tiles' worth) are waiting, so the fixed cost of an update (a few tens
+/// of microseconds of the coordinator's CPU) stays a small part of the
+/// cost of merging the tiles it shows, however slowly a render goes…
+pub const LIVE_BATCH_PIXELS: usize = 32 * 16 * 16;
+/// …or, with fewer waiting, once this long has passed since the last.
+pub const LIVE_AT_MOST_EVERY: Duration = Duration::from_secs(5);
+
 /// Settings of a coordinator.
 #[derive(Clone, Debug)]
 pub struct ServerConfig {

@@ -31,8 +31,9 @@ pub type LiveTx = mpsc::Sender<Result<v1::JobEvent, Status>>;
 pub(super) struct GrpcOutbox {
     pub(super) workers: HashMap<WorkerId, WorkerTx>,
     pub(super) watchers: HashMap<JobId, Vec<WatchTx>>,
-    /// Watchers of the image as it renders, each with what it has seen.
-    pub(super) live: HashMap<JobId, Vec<(LiveTx, LiveCursor)>>,
+    /// Watchers of the image as it renders, each with what it has seen
+    /// and when it was last sent an update (or started watching).
+    pub(super) live: HashMap<JobId, Vec<(LiveTx, LiveCursor, Instant)>>,
     /// Where changes are made durable, with a state directory.
     pub(super) journal: Option<Journal>,
     /// What is counted for `/metrics`.

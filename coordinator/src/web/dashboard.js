@@ -92,6 +92,14 @@ function heatColour(e) {
   return [c(0), c(1), c(2), 255];
 }
 
+// How long to wait before the next look, in ms, given the tiles merged a
+// second since the last: a look per 32 new tiles, so a look's fixed cost
+// stays small next to the work it shows, but at least one every 5 s and at
+// most one a second (as the coordinator paces tev, server/mod.rs).
+function nextLook(rate) {
+  return rate > 0 ? Math.min(5000, Math.max(1000, 32000 / rate)) : 5000;
+}
+
 // A job page's pictures: poll the pieces changed since the last look.
 function startLive(box) {
   const image = document.getElementById("image");
@@ -99,8 +107,10 @@ function startLive(box) {
   let from = 0;
   let merged = 0;
   let updates = 0;
+  let lastLook = performance.now();
+  let mergedAtLook = 0;
   async function look() {
-    let wait = 1000;
+    let wait = 5000;
     try {
       const r = await fetch(`${box.dataset.live}?from=${from}&merged=${merged}`, { cache: "no-store" });
       if (r.ok) wait = draw(new DataView(await r.arrayBuffer()));
@@ -160,7 +170,12 @@ function startLive(box) {
     merged = done;
     showMerged(done);
     if (state === 1) { image.dataset.done = "1"; return null; }
-    return state === 3 ? 0 : 1000;
+    if (state === 3) return 0;
+    // The pace: tiles merged a second since the last whole look.
+    const now = performance.now();
+    const rate = (done - mergedAtLook) / Math.max((now - lastLook) / 1000, 0.001);
+    [lastLook, mergedAtLook] = [now, done];
+    return nextLook(rate);
   }
   look();
 }
