@@ -45,10 +45,25 @@ async function refreshFragments() {
 
 // Each fragment refreshes on its own period (data-every, in ms): every two
 // seconds, or every five for a job's facts, whose tiles count the live
-// image keeps up to date in between.
+// image keeps up to date in between. While a live image is being looked
+// at, the fragments due are fetched right after each look instead, so the
+// coordinator wakes once for both.
+function period(el) {
+  return Number(el.dataset.every) || 2000;
+}
+
 function startFragments() {
   for (const el of document.querySelectorAll("[data-fragment]")) {
-    setInterval(() => refreshFragment(el), Number(el.dataset.every) || 2000);
+    setInterval(() => refreshFragment(el), period(el));
+  }
+}
+
+async function refreshDue() {
+  const now = performance.now();
+  for (const el of document.querySelectorAll("[data-fragment]")) {
+    if (now - Number(el.dataset.at || 0) < period(el)) continue;
+    el.dataset.at = String(now);
+    if (!(await refreshFragment(el))) return;
   }
 }
 
@@ -115,7 +130,14 @@ function startLive(box) {
       const r = await fetch(`${box.dataset.live}?from=${from}&merged=${merged}`, { cache: "no-store" });
       if (r.ok) wait = draw(new DataView(await r.arrayBuffer()));
     } catch (e) { /* try again */ }
-    if (wait !== null) setTimeout(look, wait);
+    if (wait === null) {
+      // The job ended: its facts once more, then on their own period.
+      await refreshFragments();
+      startFragments();
+      return;
+    }
+    await refreshDue();
+    setTimeout(look, wait);
   }
   // Returns how long to wait before the next look (null: stop looking; 0:
   // the answer was a part and more is ready). The answer's layout is documented in
@@ -181,7 +203,11 @@ function startLive(box) {
 }
 
 window.addEventListener("DOMContentLoaded", () => {
-  startFragments();
   const box = document.querySelector("[data-live]");
-  if (box) startLive(box);
+  if (box) {
+    for (const el of document.querySelectorAll("[data-fragment]")) el.dataset.at = String(performance.now());
+    startLive(box);
+  } else {
+    startFragments();
+  }
 });
