@@ -32,13 +32,22 @@
 //! the coordinator whose CPU time is measured; and, as under callgrind,
 //! each render gets a fresh farm.
 
-use std::io::{BufRead, BufReader, Read, Write};
-use std::net::{TcpListener, TcpStream};
+#[path = "watch_overhead/callgrind.rs"]
+mod callgrind;
+#[path = "watch_overhead/proc.rs"]
+mod proc;
+#[path = "watch_overhead/watchers.rs"]
+mod watchers;
+
+use callgrind::{Callgrind, STRING_LOOPS};
+use proc::{cpu_seconds, kernel, Kernel};
+use std::io::{BufRead, BufReader};
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Stdio};
-use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 use std::time::{Duration, Instant};
+use watchers::{dashboard, tev_sink};
 
 struct Procs(Vec<Child>);
 
@@ -76,194 +85,6 @@ fn on_cpu(cpu: u32, cmd: Command) -> Command {
     t
 }
 
-/// CPU time of every thread of `pid`, in seconds.
-fn cpu_seconds(pid: u32) -> f64 {
-    let mut ns = 0u64;
-    if let Ok(tasks) = std::fs::read_dir(format!("/proc/{pid}/task")) {
-        for t in tasks.flatten() {
-            let s = std::fs::read_to_string(t.path().join("schedstat")).unwrap_or_default();
-            ns += s.split_whitespace().next().and_then(|v| v.parse().ok()).unwrap_or(0);
-        }
-    }
-    ns as f64 * 1e-9
-}
-
-/// Where a process's CPU time went, from /proc: system time (in the
-/// kernel's 10 ms ticks, so only a median over renders means much),
-/// context switches of all its threads and minor page faults.
-#[derive(Clone, Copy, Default)]
-struct Kernel {
-    sys: f64,
-    switches: u64,
-    faults: u64,
-}
-
-impl std::ops::Sub for Kernel {
-    type Output = Kernel;
-    fn sub(self, o: Kernel) -> Kernel {
-        Kernel {
-            sys: self.sys - o.sys,
-            switches: self.switches.saturating_sub(o.switches),
-            faults: self.faults.saturating_sub(o.faults),
-        }
-    }
-}
-
-fn kernel(pid: u32) -> Kernel {
-    let stat = std::fs::read_to_string(format!("/proc/{pid}/stat")).unwrap_or_default();
-    // The fields after the command's closing parenthesis: minflt is the
-    // 10th field of the line, stime the 15th.
-    let rest: Vec<&str> =
-        stat.rsplit_once(')').map(|(_, r)| r.split_whitespace().collect()).unwrap_or_default();
-    let field = |n: usize| rest.get(n - 3).and_then(|v| v.parse::<u64>().ok()).unwrap_or(0);
-    let mut switches = 0;
-    if let Ok(tasks) = std::fs::read_dir(format!("/proc/{pid}/task")) {
-        for t in tasks.flatten() {
-            let s = std::fs::read_to_string(t.path().join("status")).unwrap_or_default();
-            switches += s
-                .lines()
-                .filter(|l| l.contains("ctxt_switches:"))
-                .filter_map(|l| l.split_whitespace().nth(1)?.parse::<u64>().ok())
-                .sum::<u64>();
-        }
-    }
-    Kernel { sys: field(15) as f64 / 100.0, switches, faults: field(10) }
-}
-
-/// A browser's connection: HTTP/1.1 kept alive between requests.
-struct Browser {
-    addr: String,
-    conn: Option<BufReader<TcpStream>>,
-}
-
-impl Browser {
-    /// `GET path`, the body (empty on any failure; the next call reconnects).
-    fn get(&mut self, path: &str) -> Vec<u8> {
-        let body = self.try_get(path);
-        if body.is_none() {
-            self.conn = None;
-        }
-        body.unwrap_or_default()
-    }
-
-    fn try_get(&mut self, path: &str) -> Option<Vec<u8>> {
-        if self.conn.is_none() {
-            self.conn = Some(BufReader::new(TcpStream::connect(&self.addr).ok()?));
-        }
-        let c = self.conn.as_mut()?;
-        let req = format!("GET {path} HTTP/1.1\r\nHost: {}\r\n\r\n", self.addr);
-        c.get_mut().write_all(req.as_bytes()).ok()?;
-        let mut len = 0usize;
-        loop {
-            let mut line = String::new();
-            if c.read_line(&mut line).ok()? == 0 {
-                return None;
-            }
-            let line = line.trim_end();
-            if line.is_empty() {
-                break;
-            }
-            if let Some((k, v)) = line.split_once(':') {
-                if k.eq_ignore_ascii_case("content-length") {
-                    len = v.trim().parse().ok()?;
-                }
-            }
-        }
-        let mut body = vec![0u8; len];
-        c.read_exact(&mut body).ok()?;
-        Some(body)
-    }
-}
-
-/// A job page open on the running job until `stop`: returns the requests made.
-fn dashboard(addr: String, stop: Arc<AtomicBool>) -> std::thread::JoinHandle<u64> {
-    std::thread::spawn(move || {
-        let mut browser = Browser { addr, conn: None };
-        let mut requests = 0u64;
-        let job = loop {
-            if stop.load(Ordering::Relaxed) {
-                return requests;
-            }
-            requests += 1;
-            let status: serde_json::Value =
-                serde_json::from_slice(&browser.get("/api/status")).unwrap_or_default();
-            let running = status["jobs"].as_array().and_then(|jobs| {
-                jobs.iter().find(|j| j["state"] == "running").and_then(|j| j["id"].as_u64())
-            });
-            match running {
-                Some(id) => break id,
-                None => std::thread::sleep(Duration::from_millis(50)),
-            }
-        };
-        browser.get(&format!("/jobs/{job}"));
-        let (mut cursor, mut merged, mut last_facts) = (0u32, 0u32, Instant::now());
-        let (mut last_look, mut merged_at_look, mut more) = (Instant::now(), 0u32, false);
-        loop {
-            // Once the render has ended, one more look fetches the
-            // finished image, as the page does.
-            let last = stop.load(Ordering::Relaxed);
-            let body = browser.get(&format!("/api/jobs/{job}/live?from={cursor}&merged={merged}"));
-            requests += 1;
-            if body.len() >= 28 {
-                let word =
-                    |i: usize| u32::from_le_bytes([body[i], body[i + 1], body[i + 2], body[i + 3]]);
-                (cursor, merged) = (word(8), word(12));
-                more = word(16) == 3;
-                if word(16) != 0 && !more {
-                    // Done (or ended): the page stops looking, as the script does.
-                    break;
-                }
-            }
-            if last {
-                break;
-            }
-            if last_facts.elapsed() >= Duration::from_secs(5) {
-                browser.get(&format!("/fragments/job/{job}"));
-                requests += 1;
-                last_facts = Instant::now();
-            }
-            if more {
-                continue;
-            }
-            // The script's pace (`nextLook`): a look per 32 tiles merged,
-            // between one and five seconds apart.
-            let rate = f64::from(merged.saturating_sub(merged_at_look))
-                / last_look.elapsed().as_secs_f64().max(1e-3);
-            (last_look, merged_at_look) = (Instant::now(), merged);
-            let wait = if rate > 0.0 { (32.0 / rate).clamp(1.0, 5.0) } else { 5.0 };
-            let t = Instant::now();
-            while t.elapsed().as_secs_f64() < wait && !stop.load(Ordering::Relaxed) {
-                std::thread::sleep(Duration::from_millis(20));
-            }
-        }
-        requests
-    })
-}
-
-/// A display server that takes everything and counts the bytes.
-fn tev_sink() -> (String, Arc<AtomicU64>) {
-    let l = TcpListener::bind("127.0.0.1:0").expect("bind");
-    let addr = l.local_addr().expect("addr").to_string();
-    let bytes = Arc::new(AtomicU64::new(0));
-    let count = bytes.clone();
-    std::thread::spawn(move || {
-        for s in l.incoming().flatten() {
-            let count = count.clone();
-            std::thread::spawn(move || {
-                let mut s = s;
-                let mut buf = vec![0u8; 1 << 16];
-                while let Ok(n) = s.read(&mut buf) {
-                    if n == 0 {
-                        break;
-                    }
-                    count.fetch_add(n as u64, Ordering::Relaxed);
-                }
-            });
-        }
-    });
-    (addr, bytes)
-}
-
 struct Run {
     wall: f64,
     cpu: f64,
@@ -272,55 +93,6 @@ struct Run {
     tev_bytes: u64,
     requests: u64,
     kernel: Kernel,
-}
-
-/// The coordinator under callgrind: its process and where it dumps.
-struct Callgrind {
-    pid: u32,
-    dir: PathBuf,
-}
-
-impl Callgrind {
-    fn control(&self, flag: &str) {
-        let ok = Command::new("callgrind_control")
-            .args([flag, &self.pid.to_string()])
-            .stdout(Stdio::null())
-            .status()
-            .is_ok_and(|s| s.success());
-        assert!(ok, "callgrind_control {flag} failed");
-    }
-
-    /// Zeroes the counts.
-    fn zero(&self) {
-        self.control("-z");
-    }
-
-    /// Dumps the counts since the last zero and returns their total.
-    fn dump(&self) -> u64 {
-        let before = self.dumps();
-        self.control("-d");
-        let newest = self
-            .dumps()
-            .into_iter()
-            .filter(|p| !before.contains(p))
-            .max_by_key(|p| std::fs::metadata(p).and_then(|m| m.modified()).ok())
-            .expect("a new callgrind dump");
-        let text = std::fs::read_to_string(&newest).expect("read the dump");
-        let total = text
-            .lines()
-            .find_map(|l| l.strip_prefix("totals:").or_else(|| l.strip_prefix("summary:")))
-            .and_then(|v| v.split_whitespace().next()?.parse().ok())
-            .expect("a total in the dump");
-        total
-    }
-
-    fn dumps(&self) -> Vec<PathBuf> {
-        let mut v: Vec<PathBuf> = std::fs::read_dir(&self.dir)
-            .map(|d| d.flatten().map(|e| e.path()).collect())
-            .unwrap_or_default();
-        v.retain(|p| p.file_name().is_some_and(|n| n.to_string_lossy().starts_with("cg.")));
-        v
-    }
 }
 
 fn render(
@@ -368,15 +140,6 @@ fn render(
     let instructions = cg.map(Callgrind::dump);
     Run { wall, cpu, instructions, tev_bytes: bytes.load(Ordering::Relaxed), requests, kernel }
 }
-
-/// glibc's settings that keep `memcpy` and `memset` in their vector
-/// loops at every size. Callgrind counts each iteration of a `rep movsb`
-/// or `rep stosb` (which glibc uses from a few KiB up) as an instruction,
-/// so a 1 MiB copy would count 1,048,576 instructions where the CPU moves
-/// tens of bytes a cycle; the loops count about 0.1 a byte, in line with
-/// what the copy costs.
-const STRING_LOOPS: &str =
-    "glibc.cpu.x86_rep_movsb_threshold=1099511627776:glibc.cpu.x86_rep_stosb_threshold=1099511627776";
 
 /// A coordinator (under callgrind if asked) and two workers of one thread.
 struct Farm {
