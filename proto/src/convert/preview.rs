@@ -25,8 +25,8 @@ pub fn push_piece(
     write(&mut preview.sums);
 }
 
-fn floats(bytes: &[u8]) -> impl Iterator<Item = f32> + '_ {
-    bytes.chunks_exact(4).map(|b| f32::from_le_bytes([b[0], b[1], b[2], b[3]]))
+fn piece_bounds(c: &[i32; 4]) -> Bounds2i {
+    Bounds2i::new(Point2i::new(c[0], c[1]), Point2i::new(c[2], c[3]))
 }
 
 /// The pieces of a preview of a `width`×`height` image, resolved to pixel
@@ -50,7 +50,7 @@ pub fn decode_preview(p: &v1::JobPreview, width: u32, height: u32) -> Result<Vec
     // anything is allocated for them.
     let mut total = 0usize;
     for c in pieces {
-        let b = Bounds2i::new(Point2i::new(c[0], c[1]), Point2i::new(c[2], c[3]));
+        let b = piece_bounds(c);
         let inside = c[0] >= 0
             && c[1] >= 0
             && c[0] < c[2]
@@ -66,13 +66,15 @@ pub fn decode_preview(p: &v1::JobPreview, width: u32, height: u32) -> Result<Vec
     if total != p.sums.len() {
         return Err(bad(pieces.last().map_or(&[], |c| &c[..])));
     }
-    let mut at = 0;
+    let (mut sums, _) = p.sums.as_chunks::<16>();
     let out = pieces.iter().map(|c| {
-        let b = Bounds2i::new(Point2i::new(c[0], c[1]), Point2i::new(c[2], c[3]));
-        let bytes = &p.sums[at..at + b.area() * 16];
-        at += bytes.len();
-        let v: Vec<f32> = floats(bytes).collect();
-        let pixels = v.chunks_exact(4).map(|s| resolve([s[0], s[1], s[2]], s[3], p.scale));
+        let b = piece_bounds(c);
+        let (mine, rest) = sums.split_at(b.area());
+        sums = rest;
+        let pixels = mine.iter().map(|px| {
+            let f = |k: usize| f32::from_le_bytes([px[k], px[k + 1], px[k + 2], px[k + 3]]);
+            resolve([f(0), f(4), f(8)], f(12), p.scale)
+        });
         let (w, h) = (b.width() as usize, b.height() as usize);
         let image = RgbImage { width: w, height: h, pixels: pixels.collect() };
         ImagePiece { bounds: b, image, error: None }
