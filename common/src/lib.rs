@@ -14,6 +14,8 @@ pub mod geometry;
 pub mod ids;
 /// The RGB image type, its readers and writers, and image metrics.
 pub mod image;
+/// Floats as little-endian bytes.
+pub mod le;
 /// Transcendental functions with the same bits on every host.
 pub mod math;
 /// pbrt-v3's PCG32 random number generator.

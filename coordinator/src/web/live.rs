@@ -35,6 +35,7 @@ use farm_common::film::FilmGeometry;
 use farm_common::geometry::{Bounds2i, Point2i};
 use farm_common::ids::{JobId, TileId};
 use farm_common::image::RgbImage;
+use farm_common::le::extend_f32s;
 use farm_proto::v1;
 use prost::Message;
 
@@ -187,12 +188,11 @@ pub fn finished_since(
         let rows = r.min.y as usize..r.max.y as usize;
         let cols = r.min.x as usize..r.max.x as usize;
         for y in rows.clone() {
-            let row = &image.pixels[y * w..][cols.clone()];
-            out.extend(row.iter().flatten().flat_map(|v| v.to_le_bytes()));
+            extend_f32s(&mut out, image.pixels[y * w..][cols.clone()].as_flattened());
         }
         if let Some(e) = error {
             for y in rows.clone() {
-                out.extend(e[y * w..][cols.clone()].iter().flat_map(|v| v.to_le_bytes()));
+                extend_f32s(&mut out, &e[y * w..][cols.clone()]);
             }
         }
     }
@@ -206,10 +206,9 @@ pub fn finished(image: &RgbImage, error: Option<&[f32]>) -> Vec<u8> {
     let b = Bounds2i::new(Point2i::new(0, 0), Point2i::new(w as i32, h as i32));
     let error = error.filter(|e| e.len() == image.pixels.len());
     piece_header(&mut out, b, if error.is_some() { PIXELS_AND_ERROR } else { PIXELS });
-    let mut body: Vec<[u8; 4]> = Vec::with_capacity(image.pixels.len() * 4);
-    body.extend(image.pixels.iter().flatten().map(|v| v.to_le_bytes()));
-    body.extend(error.into_iter().flatten().map(|v| v.to_le_bytes()));
-    out.extend_from_slice(body.as_flattened());
+    out.reserve(image.pixels.len() * 16);
+    extend_f32s(&mut out, image.pixels.as_flattened());
+    extend_f32s(&mut out, error.unwrap_or_default());
     out
 }
 

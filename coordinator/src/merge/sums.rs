@@ -1,0 +1,129 @@
+//! The whole film's sums, kept as two planes: each pixel's Σw·r, Σw·g,
+//! Σw·b, Σw side by side with its neighbours', and the second half's sums
+//! apart. The image and every watcher read the first plane only, so a row
+//! of it goes out as one copy of its bytes; the error estimate reads both.
+
+use farm_common::film::{FilmTile, Pixel};
+use farm_common::geometry::{Bounds2i, Point2i};
+
+/// The film's sums over its cropped pixel bounds.
+#[derive(Debug)]
+pub(super) struct Sums {
+    pub bounds: Bounds2i,
+    /// Row-major over `bounds`: Σw·r, Σw·g, Σw·b, Σw.
+    pub value: Vec<[f32; 4]>,
+    /// The same sums over the second half of each pixel's samples.
+    pub second: Vec<[f32; 4]>,
+}
+
+impl Sums {
+    /// Zero sums over `bounds`.
+    pub fn new(bounds: Bounds2i) -> Self {
+        let n = bounds.area();
+        Sums { bounds, value: vec![[0.0; 4]; n], second: vec![[0.0; 4]; n] }
+    }
+
+    /// Pixel `i` (row-major) with all its sums.
+    #[inline]
+    pub fn pixel(&self, i: usize) -> Pixel {
+        let (v, s) = (self.value[i], self.second[i]);
+        Pixel {
+            contrib: [v[0], v[1], v[2]],
+            weight: v[3],
+            second_contrib: [s[0], s[1], s[2]],
+            second_weight: s[3],
+        }
+    }
+
+    /// The index of pixel `p` (which must lie in the bounds).
+    #[inline]
+    pub fn offset(&self, p: Point2i) -> usize {
+        self.bounds.offset(p)
+    }
+
+    /// Adds a tile's sums where it overlaps: each sum gets the one
+    /// addition [`FilmTile::merge`] gives it, so the bits are the same.
+    pub fn merge(&mut self, t: &FilmTile) {
+        let o = self.bounds.intersect(&t.pixel_bounds);
+        if o.is_empty() {
+            return;
+        }
+        let n = o.width() as usize;
+        for y in o.min.y..o.max.y {
+            let row = Point2i::new(o.min.x, y);
+            let (s, d) = (t.pixel_bounds.offset(row), self.bounds.offset(row));
+            let src = &t.pixels[s..s + n];
+            let value = &mut self.value[d..d + n];
+            let second = &mut self.second[d..d + n];
+            for ((v, h), p) in value.iter_mut().zip(second.iter_mut()).zip(src) {
+                for c in 0..3 {
+                    v[c] += p.contrib[c];
+                    h[c] += p.second_contrib[c];
+                }
+                v[3] += p.weight;
+                h[3] += p.second_weight;
+            }
+        }
+    }
+
+    /// Adds these sums to `part` where the two overlap, as merging a tile
+    /// of them into it would.
+    pub fn add_into(&self, part: &mut FilmTile) {
+        let o = self.bounds.intersect(&part.pixel_bounds);
+        if o.is_empty() {
+            return;
+        }
+        let n = o.width() as usize;
+        for y in o.min.y..o.max.y {
+            let row = Point2i::new(o.min.x, y);
+            let (s, d) = (self.bounds.offset(row), part.pixel_bounds.offset(row));
+            for (k, dst) in part.pixels[d..d + n].iter_mut().enumerate() {
+                let p = self.pixel(s + k);
+                for c in 0..3 {
+                    dst.contrib[c] += p.contrib[c];
+                    dst.second_contrib[c] += p.second_contrib[c];
+                }
+                dst.weight += p.weight;
+                dst.second_weight += p.second_weight;
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use farm_common::Spectrum;
+
+    fn tile(x0: i32, y0: i32, x1: i32, y1: i32, k: f32) -> FilmTile {
+        let mut t = FilmTile::new(Bounds2i::new(Point2i::new(x0, y0), Point2i::new(x1, y1)));
+        for p in t.pixel_bounds.iter() {
+            let v = 0.1 + (p.x * 7 + p.y * 3) as f32 * 1e-3 * k;
+            t.add(p, Spectrum::new(v, v / 3.0, 0.7), 0.3 + v, (p.x + p.y) % 2 == 0);
+        }
+        t
+    }
+
+    #[test]
+    fn two_planes_hold_the_bits_one_tile_would() {
+        let bounds = Bounds2i::new(Point2i::new(2, 1), Point2i::new(30, 20));
+        let tiles = [tile(0, 0, 18, 12, 1.0), tile(14, -3, 40, 7, 2.9), tile(10, 5, 25, 22, 0.4)];
+        let mut planes = Sums::new(bounds);
+        let mut whole = FilmTile::new(bounds);
+        for t in &tiles {
+            planes.merge(t);
+            whole.merge(t);
+        }
+        let bits = |p: Pixel| p.to_array().map(f32::to_bits);
+        for (i, p) in whole.pixels.iter().enumerate() {
+            assert_eq!(bits(planes.pixel(i)), bits(*p), "pixel {i}");
+        }
+        // Added into a part that reaches past the film, as a tile would be.
+        let reach = Bounds2i::new(Point2i::new(20, 15), Point2i::new(35, 25));
+        let (mut a, mut b) = (tile(20, 15, 35, 25, 0.7), tile(20, 15, 35, 25, 0.7));
+        planes.add_into(&mut a);
+        b.merge(&whole);
+        assert_eq!(a.pixel_bounds, reach);
+        assert_eq!(a, b);
+    }
+}
