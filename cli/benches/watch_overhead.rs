@@ -31,6 +31,11 @@
 //! and tev) on CPU 1, so the workers' rendering does not share a core with
 //! the coordinator whose CPU time is measured; and, as under callgrind,
 //! each render gets a fresh farm.
+//!
+//! `FARM_PERF=DIR` records the coordinator with `perf record` during each
+//! render (DIR/plain-N.data, DIR/watched-N.data; the warm-up renders are
+//! plain ones too): where its time goes in the kernel as well, which
+//! callgrind does not see.
 
 #[path = "watch_overhead/callgrind.rs"]
 mod callgrind;
@@ -85,6 +90,24 @@ fn on_cpu(cpu: u32, cmd: Command) -> Command {
     t
 }
 
+/// `FARM_PERF=DIR`: `perf record` of the coordinator during each render,
+/// written to DIR/plain-N.data or DIR/watched-N.data.
+fn perf_record(coord: u32, watched: bool) -> Option<Child> {
+    let dir = PathBuf::from(std::env::var_os("FARM_PERF")?);
+    std::fs::create_dir_all(&dir).ok()?;
+    let kind = if watched { "watched" } else { "plain" };
+    let n = (1..).find(|n| !dir.join(format!("{kind}-{n}.data")).exists())?;
+    let child = Command::new("perf")
+        .args(["record", "-q", "-F", "10000", "-p", &coord.to_string(), "-o"])
+        .arg(dir.join(format!("{kind}-{n}.data")))
+        .stdout(Stdio::null())
+        .stderr(Stdio::null())
+        .spawn()
+        .ok()?;
+    std::thread::sleep(Duration::from_millis(300));
+    Some(child)
+}
+
 struct Run {
     wall: f64,
     cpu: f64,
@@ -114,6 +137,7 @@ fn render(
     if let Some(cg) = cg {
         cg.zero();
     }
+    let perf = perf_record(coord, watched);
     let cpu0 = cpu_seconds(coord);
     let k0 = kernel(coord);
     let t0 = Instant::now();
@@ -138,6 +162,10 @@ fn render(
     let cpu = cpu_seconds(coord) - cpu0;
     let kernel = kernel(coord) - k0;
     let instructions = cg.map(Callgrind::dump);
+    if let Some(mut p) = perf {
+        let _ = Command::new("kill").args(["-INT", &p.id().to_string()]).status();
+        let _ = p.wait();
+    }
     Run { wall, cpu, instructions, tev_bytes: bytes.load(Ordering::Relaxed), requests, kernel }
 }
 

@@ -13,6 +13,7 @@
 
 use farm_common::geometry::{Bounds2i, Point2i};
 use farm_common::image::{ImagePiece, RgbImage};
+use farm_common::le::extend_f32s;
 use farm_coordinator::live::{pieces, whole_pieces};
 use std::io::Write;
 use std::net::{TcpStream, ToSocketAddrs};
@@ -25,14 +26,25 @@ pub const UPDATE_IMAGE: u8 = 3;
 /// Least time between two updates of a live image (pbrt-v4's 250 ms).
 pub const INTERVAL: Duration = Duration::from_millis(250);
 
+/// Packets are written once this many bytes of them are ready (or all
+/// are): few writes, each waking the display server once.
+const SEND_AT: usize = 1 << 20;
+
 /// One packet, with its length filled in.
 fn packet(kind: u8, fill: impl FnOnce(&mut Vec<u8>)) -> Vec<u8> {
-    let mut b = vec![0u8; 4];
-    b.push(kind);
-    fill(&mut b);
-    let len = b.len() as u32;
-    b[..4].copy_from_slice(&len.to_le_bytes());
+    let mut b = Vec::new();
+    packet_into(&mut b, kind, fill);
     b
+}
+
+/// One packet appended to `out`, with its length filled in.
+fn packet_into(out: &mut Vec<u8>, kind: u8, fill: impl FnOnce(&mut Vec<u8>)) {
+    let start = out.len();
+    out.extend_from_slice(&[0; 4]);
+    out.push(kind);
+    fill(out);
+    let len = (out.len() - start) as u32;
+    out[start..start + 4].copy_from_slice(&len.to_le_bytes());
 }
 
 fn string(b: &mut Vec<u8>, s: &str) {
@@ -58,16 +70,27 @@ pub fn create_image(title: &str, width: i32, height: i32, channels: &[&str]) -> 
 /// The `UpdateImage` packet for channel `channel` over `rect`; `values`
 /// holds its pixels row-major.
 pub fn update_image(title: &str, channel: &str, rect: Bounds2i, values: &[f32]) -> Vec<u8> {
-    packet(UPDATE_IMAGE, |b| {
+    let mut b = Vec::new();
+    update_image_into(&mut b, title, channel, rect, values);
+    b
+}
+
+/// [`update_image`], appended to `out`.
+fn update_image_into(
+    out: &mut Vec<u8>,
+    title: &str,
+    channel: &str,
+    rect: Bounds2i,
+    values: &[f32],
+) {
+    packet_into(out, UPDATE_IMAGE, |b| {
         b.push(0); // keep focus where it is
         string(b, title);
         string(b, channel);
         for v in [rect.min.x, rect.min.y, rect.width(), rect.height()] {
             b.extend(v.to_le_bytes());
         }
-        for v in values {
-            b.extend(v.to_le_bytes());
-        }
+        extend_f32s(b, values);
     })
 }
 
@@ -140,19 +163,29 @@ impl Display {
     }
 
     /// Sends pieces of the image (image coordinates), one packet per
-    /// channel each; pieces that do not fit the image are skipped.
+    /// channel each, in writes of about [`SEND_AT`] bytes; pieces that do not fit the image
+    /// are skipped.
     pub fn pieces(&mut self, pieces: &[ImagePiece]) {
         self.last = Some(Instant::now());
         let full = Bounds2i::new(Point2i::new(0, 0), Point2i::new(self.width, self.height));
+        let mut bytes = Vec::new();
+        let mut values = Vec::new();
         for p in pieces {
             if p.bounds.intersect(&full) != p.bounds || p.image.pixels.len() != p.bounds.area() {
                 continue;
             }
             for (c, name) in ["R", "G", "B"].iter().enumerate() {
-                let values: Vec<f32> = p.image.pixels.iter().map(|v| v[c]).collect();
-                let bytes = update_image(&self.title, name, p.bounds, &values);
-                self.send(&bytes);
+                values.clear();
+                values.extend(p.image.pixels.iter().map(|v| v[c]));
+                update_image_into(&mut bytes, &self.title, name, p.bounds, &values);
             }
+            if bytes.len() >= SEND_AT {
+                self.send(&bytes);
+                bytes.clear();
+            }
+        }
+        if !bytes.is_empty() {
+            self.send(&bytes);
         }
     }
 
