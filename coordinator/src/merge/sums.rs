@@ -67,26 +67,14 @@ impl Sums {
     }
 
     /// Adds these sums to `part` where the two overlap, as merging a tile
-    /// of them into it would.
+    /// of them into it would (through a copy of the overlap: for display).
     pub fn add_into(&self, part: &mut FilmTile) {
         let o = self.bounds.intersect(&part.pixel_bounds);
         if o.is_empty() {
             return;
         }
-        let n = o.width() as usize;
-        for y in o.min.y..o.max.y {
-            let row = Point2i::new(o.min.x, y);
-            let (s, d) = (self.bounds.offset(row), part.pixel_bounds.offset(row));
-            for (k, dst) in part.pixels[d..d + n].iter_mut().enumerate() {
-                let p = self.pixel(s + k);
-                for c in 0..3 {
-                    dst.contrib[c] += p.contrib[c];
-                    dst.second_contrib[c] += p.second_contrib[c];
-                }
-                dst.weight += p.weight;
-                dst.second_weight += p.second_weight;
-            }
-        }
+        let pixels = o.iter().map(|p| self.pixel(self.offset(p))).collect();
+        part.merge(&FilmTile { pixel_bounds: o, pixels });
     }
 }
 
