@@ -163,8 +163,8 @@ impl Display {
     }
 
     /// Sends pieces of the image (image coordinates), one packet per
-    /// channel each, in writes of about [`SEND_AT`] bytes; pieces that do not fit the image
-    /// are skipped.
+    /// channel each, in writes of about [`SEND_AT`] bytes; pieces that do
+    /// not fit the image are skipped.
     pub fn pieces(&mut self, pieces: &[ImagePiece]) {
         self.last = Some(Instant::now());
         let full = Bounds2i::new(Point2i::new(0, 0), Point2i::new(self.width, self.height));

@@ -5,6 +5,7 @@
 use crate::error::{Error, Result};
 use crate::v1;
 use farm_common::image::RgbImage;
+use farm_common::le::extend_f32s;
 use farm_common::stats::RayStats;
 
 /// Bytes of pixel rows per image event.
@@ -46,17 +47,11 @@ pub fn image_chunks(
         .map(|y0| {
             let y1 = (y0 + rows_per_chunk).min(h);
             let mut rgb = Vec::with_capacity((y1 - y0) * w * 12);
-            for p in image.pixels.get(y0 * w..y1 * w).unwrap_or_default() {
-                for c in p {
-                    rgb.extend_from_slice(&c.to_le_bytes());
-                }
-            }
-            let error_map: Vec<u8> = error
-                .and_then(|(per_pixel, _)| per_pixel.get(y0 * w..y1 * w))
-                .unwrap_or_default()
-                .iter()
-                .flat_map(|v| v.to_le_bytes())
-                .collect();
+            let pixels = image.pixels.get(y0 * w..y1 * w).unwrap_or_default();
+            extend_f32s(&mut rgb, pixels.as_flattened());
+            let mut error_map = Vec::new();
+            let errors = error.and_then(|(per_pixel, _)| per_pixel.get(y0 * w..y1 * w));
+            extend_f32s(&mut error_map, errors.unwrap_or_default());
             v1::JobImage {
                 width: w as u32,
                 height: h as u32,
