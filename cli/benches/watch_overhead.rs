@@ -13,9 +13,12 @@
 //! workers of one thread, `farm submit --coordinator`. The "dashboard" is
 //! this program making the requests a job page's script makes: the live
 //! image at its pace (a look per 32 tiles merged, one to five seconds
-//! apart) and the job's facts every five seconds, and the finished
-//! image once the render ends. The coordinator's CPU is read a few seconds
-//! after both, once the journal has also finished with the job.
+//! apart, the job's facts with a look every five seconds) and the
+//! finished image once the render ends. The coordinator's CPU is read a
+//! few seconds after both, once the journal has also finished with the
+//! job: all of it, and all but its journal thread's (SQLite's reads and
+//! writes, which watching never touches and whose cost on a VM's disk
+//! varies more than watching costs).
 //!
 //! CPU time on a shared machine varies by more than the few percent being
 //! measured, so `FARM_CALLGRIND=1` runs the coordinator under valgrind's
@@ -35,7 +38,8 @@
 //! `FARM_PERF=DIR` records the coordinator with `perf record` during each
 //! render (DIR/plain-N.data, DIR/watched-N.data; the warm-up renders are
 //! plain ones too): where its time goes in the kernel as well, which
-//! callgrind does not see.
+//! callgrind does not see. `FARM_STRACE=DIR` counts its system calls
+//! (`strace -c`) instead, to DIR/plain-N.txt and DIR/watched-N.txt.
 
 #[path = "watch_overhead/callgrind.rs"]
 mod callgrind;
@@ -45,7 +49,7 @@ mod proc;
 mod watchers;
 
 use callgrind::{Callgrind, STRING_LOOPS};
-use proc::{cpu_seconds, kernel, Kernel};
+use proc::{cpu_seconds, kernel, Cpu, Kernel};
 use std::io::{BufRead, BufReader};
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Stdio};
@@ -91,26 +95,38 @@ fn on_cpu(cpu: u32, cmd: Command) -> Command {
 }
 
 /// `FARM_PERF=DIR`: `perf record` of the coordinator during each render,
-/// written to DIR/plain-N.data or DIR/watched-N.data.
-fn perf_record(coord: u32, watched: bool) -> Option<Child> {
-    let dir = PathBuf::from(std::env::var_os("FARM_PERF")?);
+/// written to DIR/plain-N.data or DIR/watched-N.data; `FARM_STRACE=DIR`:
+/// `strace -c`'s count of its system calls, to DIR/plain-N.txt or
+/// DIR/watched-N.txt.
+fn trace_coordinator(coord: u32, watched: bool) -> Option<Child> {
+    let (var, ext) = if std::env::var_os("FARM_STRACE").is_some() {
+        ("FARM_STRACE", "txt")
+    } else {
+        ("FARM_PERF", "data")
+    };
+    let dir = PathBuf::from(std::env::var_os(var)?);
     std::fs::create_dir_all(&dir).ok()?;
     let kind = if watched { "watched" } else { "plain" };
-    let n = (1..).find(|n| !dir.join(format!("{kind}-{n}.data")).exists())?;
-    let child = Command::new("perf")
-        .args(["record", "-q", "-F", "10000", "-p", &coord.to_string(), "-o"])
-        .arg(dir.join(format!("{kind}-{n}.data")))
-        .stdout(Stdio::null())
-        .stderr(Stdio::null())
-        .spawn()
-        .ok()?;
+    let n = (1..).find(|n| !dir.join(format!("{kind}-{n}.{ext}")).exists())?;
+    let out = dir.join(format!("{kind}-{n}.{ext}"));
+    let pid = coord.to_string();
+    let mut cmd = if ext == "txt" {
+        let mut c = Command::new("strace");
+        c.args(["-f", "-c", "-p", &pid, "-o"]).arg(out);
+        c
+    } else {
+        let mut c = Command::new("perf");
+        c.args(["record", "-q", "-F", "10000", "-p", &pid, "-o"]).arg(out);
+        c
+    };
+    let child = cmd.stdout(Stdio::null()).stderr(Stdio::null()).spawn().ok()?;
     std::thread::sleep(Duration::from_millis(300));
     Some(child)
 }
 
 struct Run {
     wall: f64,
-    cpu: f64,
+    cpu: Cpu,
     /// Instructions the coordinator executed, under callgrind.
     instructions: Option<u64>,
     tev_bytes: u64,
@@ -137,7 +153,7 @@ fn render(
     if let Some(cg) = cg {
         cg.zero();
     }
-    let perf = perf_record(coord, watched);
+    let perf = trace_coordinator(coord, watched);
     let cpu0 = cpu_seconds(coord);
     let k0 = kernel(coord);
     let t0 = Instant::now();
@@ -276,8 +292,16 @@ fn main() {
     };
     println!("watch overhead: example.pbrt at {spp} spp, 2 workers × 1 thread, {rounds} pairs");
     println!(
-        "{:>5}  {:>11} {:>11}  {:>11} {:>11}  {:>10} {:>8}",
-        "pair", "wall plain", "wall watch", "cpu plain", "cpu watch", "tev bytes", "requests"
+        "{:>5}  {:>11} {:>11}  {:>11} {:>11}  {:>11} {:>11}  {:>10} {:>8}",
+        "pair",
+        "wall plain",
+        "wall watch",
+        "cpu plain",
+        "cpu watch",
+        "-jrnl plain",
+        "-jrnl watch",
+        "tev bytes",
+        "requests"
     );
     let (mut plain, mut watched) = (Vec::new(), Vec::new());
     for r in 0..rounds {
@@ -289,12 +313,14 @@ fn main() {
         let [Some(p), Some(w)] = pair else { unreachable!() };
         let ins = |r: &Run| r.instructions.map(|i| format!("  {:>14} ins", i)).unwrap_or_default();
         println!(
-            "{:>5}  {:>10.3}s {:>10.3}s  {:>10.3}s {:>10.3}s  {:>10} {:>8}{}{}",
+            "{:>5}  {:>10.3}s {:>10.3}s  {:>10.3}s {:>10.3}s  {:>10.3}s {:>10.3}s  {:>10} {:>8}{}{}",
             r + 1,
             p.wall,
             w.wall,
-            p.cpu,
-            w.cpu,
+            p.cpu.total,
+            w.cpu.total,
+            p.cpu.outside_journal(),
+            w.cpu.outside_journal(),
             w.tev_bytes,
             w.requests,
             ins(&p),
@@ -306,7 +332,7 @@ fn main() {
     }
     let m = |v: &[Run], f: fn(&Run) -> f64| median(v.iter().map(f).collect());
     let (pw, ww) = (m(&plain, |r| r.wall), m(&watched, |r| r.wall));
-    let (pc, wc) = (m(&plain, |r| r.cpu), m(&watched, |r| r.cpu));
+    let (pc, wc) = (m(&plain, |r| r.cpu.total), m(&watched, |r| r.cpu.total));
     println!("median {:>10.3}s {:>10.3}s  {:>10.3}s {:>10.3}s", pw, ww, pc, wc);
     println!("watched ÷ plain: wall {:.3}, coordinator CPU {:.3}", ww / pw, wc / pc);
     let pairs =
@@ -314,7 +340,14 @@ fn main() {
     println!(
         "median of the pairs' ratios: wall {:.3}, coordinator CPU {:.3}",
         pairs(|r| r.wall),
-        pairs(|r| r.cpu)
+        pairs(|r| r.cpu.total)
+    );
+    let (pe, we) =
+        (m(&plain, |r| r.cpu.outside_journal()), m(&watched, |r| r.cpu.outside_journal()));
+    println!(
+        "coordinator CPU outside the journal thread: median {pe:.3}s / {we:.3}s, ratio {:.3}, median of the pairs' ratios {:.3}",
+        we / pe,
+        pairs(|r| r.cpu.outside_journal())
     );
     println!(
         "median system time {:.2}s / {:.2}s, context switches {:.0} / {:.0}, page faults {:.0} / {:.0} (plain / watched)",
