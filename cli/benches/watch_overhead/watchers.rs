@@ -79,7 +79,14 @@ pub fn dashboard(addr: String, stop: Arc<AtomicBool>) -> std::thread::JoinHandle
             // Once the render has ended, one more look fetches the
             // finished image, as the page does.
             let last = stop.load(Ordering::Relaxed);
-            let body = browser.get(&format!("/api/jobs/{job}/live?from={cursor}&merged={merged}"));
+            // The job's facts come with a look every five seconds.
+            let facts = last_facts.elapsed() >= Duration::from_secs(5);
+            if facts {
+                last_facts = Instant::now();
+            }
+            let f = if facts { "&facts=1" } else { "" };
+            let body =
+                browser.get(&format!("/api/jobs/{job}/live?from={cursor}&merged={merged}{f}"));
             requests += 1;
             if body.len() >= 28 {
                 let word =
@@ -93,11 +100,6 @@ pub fn dashboard(addr: String, stop: Arc<AtomicBool>) -> std::thread::JoinHandle
             }
             if last {
                 break;
-            }
-            if last_facts.elapsed() >= Duration::from_secs(5) {
-                browser.get(&format!("/fragments/job/{job}"));
-                requests += 1;
-                last_facts = Instant::now();
             }
             if more {
                 continue;

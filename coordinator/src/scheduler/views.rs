@@ -1,6 +1,7 @@
 //! What the dashboard and the metrics see of the scheduler: richer rows
 //! than `farm status`, the gauges, and the priority action.
 
+use super::job::Job;
 use super::{Outbox, Record, Scheduler};
 use farm_common::ids::{JobId, WorkerId};
 use serde::Serialize;
@@ -92,53 +93,7 @@ impl Scheduler {
         mut rel_mse: impl FnMut(JobId) -> Option<f64>,
     ) -> (Vec<JobView>, Vec<WorkerView>) {
         let max_fail = self.config.max_worker_failures;
-        let jobs = self
-            .jobs
-            .values()
-            .map(|j| {
-                let total = j.spec.geometry.tile_count();
-                let running = j.state.is_active();
-                let elapsed = j.started.filter(|_| running).map(|s| (now - s).as_secs_f64());
-                let eta = elapsed.filter(|_| j.done_tiles > 0).map(|e| {
-                    e * f64::from(total - j.done_tiles.min(total)) / f64::from(j.done_tiles)
-                });
-                let estimate = match &j.film {
-                    Some(_) if j.done_tiles > 0 => rel_mse(j.id),
-                    _ => j.rel_mse,
-                };
-                let holders: HashSet<WorkerId> = j.in_flight.values().map(|(w, _)| *w).collect();
-                let b = j.spec.geometry.cropped_pixel_bounds;
-                JobView {
-                    id: j.id.0,
-                    name: j.spec.name.clone(),
-                    owner: j.spec.owner.name.clone(),
-                    owner_id: j.spec.owner.id.clone(),
-                    state: j.state.name(),
-                    message: match &j.state {
-                        super::JobState::Failed(m) => Some(m.clone()),
-                        _ => None,
-                    },
-                    tiles_done: j.done_tiles,
-                    tiles_total: total,
-                    spp: j.spec.spp,
-                    priority: j.spec.priority,
-                    width: b.width(),
-                    height: b.height(),
-                    elapsed_seconds: elapsed,
-                    eta_seconds: eta,
-                    rel_mse: estimate,
-                    workers: holders.len() as u32,
-                    attempts: j.attempts.values().sum(),
-                    retries: j
-                        .attempts
-                        .values()
-                        .map(|a| a.saturating_sub(1))
-                        .sum::<u32>()
-                        .saturating_sub(j.speculated),
-                    speculated: j.speculated,
-                }
-            })
-            .collect();
+        let jobs = self.jobs.values().map(|j| job_view(j, now, &mut rel_mse)).collect();
         let workers = self
             .workers
             .iter()
@@ -163,6 +118,16 @@ impl Scheduler {
             })
             .collect();
         (jobs, workers)
+    }
+
+    /// One job as [`Scheduler::views`] shows it.
+    pub fn view(
+        &self,
+        job: JobId,
+        now: Instant,
+        mut rel_mse: impl FnMut(JobId) -> Option<f64>,
+    ) -> Option<JobView> {
+        self.jobs.get(&job).map(|j| job_view(j, now, &mut rel_mse))
     }
 
     /// Jobs by state, queue depth and workers, for the metrics.
@@ -191,5 +156,50 @@ impl Scheduler {
         tracing::info!(job = job.0, priority, "job priority changed");
         self.fill(out);
         true
+    }
+}
+
+/// A job's row; `rel_mse(job)` gives a running job's estimate so far.
+fn job_view(j: &Job, now: Instant, rel_mse: &mut impl FnMut(JobId) -> Option<f64>) -> JobView {
+    let total = j.spec.geometry.tile_count();
+    let running = j.state.is_active();
+    let elapsed = j.started.filter(|_| running).map(|s| (now - s).as_secs_f64());
+    let eta = elapsed
+        .filter(|_| j.done_tiles > 0)
+        .map(|e| e * f64::from(total - j.done_tiles.min(total)) / f64::from(j.done_tiles));
+    let estimate = match &j.film {
+        Some(_) if j.done_tiles > 0 => rel_mse(j.id),
+        _ => j.rel_mse,
+    };
+    let holders: HashSet<WorkerId> = j.in_flight.values().map(|(w, _)| *w).collect();
+    let b = j.spec.geometry.cropped_pixel_bounds;
+    JobView {
+        id: j.id.0,
+        name: j.spec.name.clone(),
+        owner: j.spec.owner.name.clone(),
+        owner_id: j.spec.owner.id.clone(),
+        state: j.state.name(),
+        message: match &j.state {
+            super::JobState::Failed(m) => Some(m.clone()),
+            _ => None,
+        },
+        tiles_done: j.done_tiles,
+        tiles_total: total,
+        spp: j.spec.spp,
+        priority: j.spec.priority,
+        width: b.width(),
+        height: b.height(),
+        elapsed_seconds: elapsed,
+        eta_seconds: eta,
+        rel_mse: estimate,
+        workers: holders.len() as u32,
+        attempts: j.attempts.values().sum(),
+        retries: j
+            .attempts
+            .values()
+            .map(|a| a.saturating_sub(1))
+            .sum::<u32>()
+            .saturating_sub(j.speculated),
+        speculated: j.speculated,
     }
 }

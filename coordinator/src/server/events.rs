@@ -1,7 +1,7 @@
 //! The coordinator's single event loop: every change to the scheduler
 //! happens here, one event at a time.
 
-use super::live::{live_answer, send_live};
+use super::live::{live_answer, send_live, Pace};
 use super::outbox::{send_stored, GrpcOutbox};
 use super::ServerConfig;
 use crate::live::LiveCursor;
@@ -98,8 +98,11 @@ pub enum Event {
         from: usize,
         /// The tiles whose error map the page has drawn.
         merged: u32,
-        /// What there is to show.
-        reply: oneshot::Sender<LiveAnswer>,
+        /// Whether the page wants the job's facts too (its row, as the
+        /// dashboard shows it), so that one look serves both.
+        facts: bool,
+        /// What there is to show, and the facts if asked for.
+        reply: oneshot::Sender<(LiveAnswer, Option<crate::scheduler::JobView>)>,
     },
     /// The dashboard changes a job's priority.
     Priority {
@@ -170,6 +173,9 @@ pub async fn run(mut rx: mpsc::UnboundedReceiver<Event>, config: ServerConfig, s
                     FromWorker::Tile { key, film_tile, stats } => {
                         let (handed, merged) = (out.answered(&key), out.metrics.tiles_merged.get());
                         sched.tile_done(id, key, film_tile, stats, &mut out);
+                        if !out.progressed.is_empty() {
+                            send_live(&sched, &mut out, now, Pace::WithProgress);
+                        }
                         // A tile's latency is its merged result's, not that
                         // of a speculative copy that lost.
                         if out.metrics.tiles_merged.get() > merged {
@@ -221,7 +227,7 @@ pub async fn run(mut rx: mpsc::UnboundedReceiver<Event>, config: ServerConfig, s
                 }
             },
             Event::LiveTick => {
-                send_live(&sched, &mut out, now);
+                send_live(&sched, &mut out, now, Pace::Tick);
                 out.recent.expire(now);
             }
             Event::Views { reply } => {
@@ -236,9 +242,15 @@ pub async fn run(mut rx: mpsc::UnboundedReceiver<Event>, config: ServerConfig, s
                 let views = sched.views(now, |job| estimates.get(&job).copied().flatten());
                 let _ = reply.send(views);
             }
-            Event::Live { job, from, merged, reply } => {
+            Event::Live { job, from, merged, facts, reply } => {
                 let at = (from, merged);
-                let _ = reply.send(live_answer(&mut sched, &mut out.recent, job, at, now));
+                let answer = live_answer(&mut sched, &mut out.recent, job, at, now);
+                let facts = facts.then(|| {
+                    // Up to date already: the answer brought it up to date.
+                    let estimate = sched.film_mut(job).and_then(|f| f.running_estimate());
+                    sched.view(job, now, |_| estimate)
+                });
+                let _ = reply.send((answer, facts.flatten()));
             }
             Event::Priority { job, priority, reply } => {
                 let _ = reply.send(sched.set_priority(job, priority, &mut out));

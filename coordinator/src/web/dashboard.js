@@ -46,8 +46,8 @@ async function refreshFragments() {
 // Each fragment refreshes on its own period (data-every, in ms): every two
 // seconds, or every five for a job's facts, whose tiles count the live
 // image keeps up to date in between. While a live image is being looked
-// at, the fragments due are fetched right after each look instead, so the
-// coordinator wakes once for both.
+// at, the facts come with a look instead (`facts=1`), so the coordinator
+// is asked once for both.
 function period(el) {
   return Number(el.dataset.every) || 2000;
 }
@@ -55,15 +55,6 @@ function period(el) {
 function startFragments() {
   for (const el of document.querySelectorAll("[data-fragment]")) {
     setInterval(() => refreshFragment(el), period(el));
-  }
-}
-
-async function refreshDue() {
-  const now = performance.now();
-  for (const el of document.querySelectorAll("[data-fragment]")) {
-    if (now - Number(el.dataset.at || 0) < period(el)) continue;
-    el.dataset.at = String(now);
-    if (!(await refreshFragment(el))) return;
   }
 }
 
@@ -124,11 +115,16 @@ function startLive(box) {
   let updates = 0;
   let lastLook = performance.now();
   let mergedAtLook = 0;
+  const facts = document.querySelector("[data-fragment]");
+  let factsAt = performance.now();
   async function look() {
     let wait = 5000;
+    const withFacts = facts && performance.now() - factsAt >= period(facts);
+    const ask = `${box.dataset.live}?from=${from}&merged=${merged}${withFacts ? "&facts=1" : ""}`;
     try {
-      const r = await fetch(`${box.dataset.live}?from=${from}&merged=${merged}`, { cache: "no-store" });
-      if (r.ok) wait = draw(new DataView(await r.arrayBuffer()));
+      const r = await fetch(ask, { cache: "no-store" });
+      if (r.status === 401) { location.href = "/signin"; return; }
+      if (r.ok) wait = draw(new DataView(await r.arrayBuffer()), withFacts);
     } catch (e) { /* try again */ }
     if (wait === null) {
       // The job ended: its facts once more, then on their own period.
@@ -136,14 +132,14 @@ function startLive(box) {
       startFragments();
       return;
     }
-    await refreshDue();
     setTimeout(look, wait);
   }
   // Returns how long to wait before the next look (null: stop looking; 0:
   // the answer was a part and more is ready). The answer's layout is documented in
   // the coordinator's web/live.rs: pieces of the film's sums, which the
-  // page resolves and tone-maps itself, and of the error map.
-  function draw(d) {
+  // page resolves and tone-maps itself, and of the error map; then the
+  // job's facts, if asked for.
+  function draw(d, withFacts) {
     const u = (i) => d.getUint32(i, true);
     const f = (i) => d.getFloat32(i, true);
     const [w, h, next, done, state, scale, n] = [u(0), u(4), u(8), u(12), u(16), f(20), u(24)];
@@ -187,6 +183,11 @@ function startLive(box) {
         error.getContext("2d").putImageData(new ImageData(heat, pw, ph), x, y);
       }
     }
+    if (withFacts && at + 4 <= d.byteLength) {
+      const len = u(at);
+      facts.innerHTML = new TextDecoder().decode(new Uint8Array(d.buffer, d.byteOffset + at + 4, len));
+      factsAt = performance.now();
+    }
     if (n > 0) image.dataset.updates = String(++updates);
     from = next;
     merged = done;
@@ -205,7 +206,6 @@ function startLive(box) {
 window.addEventListener("DOMContentLoaded", () => {
   const box = document.querySelector("[data-live]");
   if (box) {
-    for (const el of document.querySelectorAll("[data-fragment]")) el.dataset.at = String(performance.now());
     startLive(box);
   } else {
     startFragments();

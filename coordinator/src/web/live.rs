@@ -14,6 +14,8 @@
 //!   u32 x0, u32 y0, u32 w, u32 h, u32 kind (0 pixels, 1 pixels and error map, 2 error map),
 //!   pixels: running: w·h × (f32 Σw·r, Σw·g, Σw·b, Σw); done: w·h × (f32 r, g, b),
 //!   then error map: w·h × f32 relMSE
+//! then, if asked for with `facts=1`: u32 n, n bytes of the job's facts
+//!   as HTML (the `/fragments/job/ID` fragment; none if the job has gone)
 //! ```
 //!
 //! While running, a pixel shows max(Σw·c / Σw, 0) · scale (Σw·c · scale
@@ -45,6 +47,9 @@ pub(super) struct Since {
     from: usize,
     #[serde(default)]
     merged: u32,
+    /// `facts=1`: the job's facts too.
+    #[serde(default)]
+    facts: u8,
 }
 
 /// The answer's state field.
@@ -280,32 +285,43 @@ pub(super) async fn live(
     if let Err(refused) = may_touch(&web, &caller, job).await {
         return refused;
     }
-    let (from, merged) = (q.from, q.merged);
-    let Some(answer) = super::ask(&web, |reply| Event::Live { job, from, merged, reply }).await
+    let (from, merged, facts) = (q.from, q.merged, q.facts == 1);
+    let Some((answer, view)) =
+        super::ask(&web, |reply| Event::Live { job, from, merged, facts, reply }).await
     else {
         return super::shutting_down();
     };
     let ended = || {
-        let h =
-            Header { width: 0, height: 0, next: 0, merged: 0, state: ENDED, scale: 1.0, pieces: 0 };
-        binary(h.bytes())
+        Header { width: 0, height: 0, next: 0, merged: 0, state: ENDED, scale: 1.0, pieces: 0 }
+            .bytes()
     };
-    match answer {
-        LiveAnswer::Running(bytes) => binary(bytes),
+    let mut bytes = match answer {
+        LiveAnswer::Running(bytes) => bytes,
         LiveAnswer::Done(f, geometry) => {
             let error = f.error.as_ref().map(|e| e.per_pixel.as_slice());
-            binary(match geometry {
+            match geometry {
                 Some(g) => finished_since(&f.image, error, &g, merged),
                 None => finished(&f.image, error),
-            })
+            }
         }
-        LiveAnswer::Stored => match stored(&web, job).await {
-            Some(bytes) => binary(bytes),
-            None => ended(),
-        },
+        LiveAnswer::Stored => stored(&web, job).await.unwrap_or_else(ended),
         LiveAnswer::Ended => ended(),
-        LiveAnswer::NoJob => (StatusCode::NOT_FOUND, "no such job of yours").into_response(),
+        LiveAnswer::NoJob => {
+            return (StatusCode::NOT_FOUND, "no such job of yours").into_response()
+        }
+    };
+    if facts {
+        append_facts(&mut bytes, view.map(|v| super::page::job_facts(&v)).as_deref());
     }
+    binary(bytes)
+}
+
+/// The facts' trailer: their HTML's length in bytes, then the HTML (an
+/// empty trailer if the job has gone).
+fn append_facts(out: &mut Vec<u8>, html: Option<&str>) {
+    let html = html.unwrap_or_default();
+    put(out, html.len() as u32);
+    out.extend_from_slice(html.as_bytes());
 }
 
 #[cfg(test)]

@@ -137,7 +137,7 @@ fn workers_table(workers: &[WorkerView]) -> String {
     out
 }
 
-fn job_facts(j: &JobView) -> String {
+pub(super) fn job_facts(j: &JobView) -> String {
     let mut out = String::new();
     let _ = write!(
         out,

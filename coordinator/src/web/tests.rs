@@ -57,6 +57,10 @@ fn setup(tag: &str) -> (Router, [String; 3], std::path::PathBuf) {
                 Event::Gauges { reply } => {
                     let _ = reply.send(());
                 }
+                Event::Live { job, facts, reply, .. } => {
+                    let row = facts.then(|| view(job.0, &client_id, "mine"));
+                    let _ = reply.send((crate::server::events::LiveAnswer::Ended, row));
+                }
                 _ => {}
             }
         }
@@ -66,6 +70,16 @@ fn setup(tag: &str) -> (Router, [String; 3], std::path::PathBuf) {
 }
 
 async fn call(app: &Router, method: &str, path: &str, headers: &[(&str, &str)]) -> (u16, String) {
+    let (status, bytes) = call_bytes(app, method, path, headers).await;
+    (status, String::from_utf8_lossy(&bytes).into_owned())
+}
+
+async fn call_bytes(
+    app: &Router,
+    method: &str,
+    path: &str,
+    headers: &[(&str, &str)],
+) -> (u16, Vec<u8>) {
     let mut req = Request::builder().method(method).uri(path);
     for (k, v) in headers {
         req = req.header(*k, *v);
@@ -81,7 +95,7 @@ async fn call(app: &Router, method: &str, path: &str, headers: &[(&str, &str)]) 
     let r = app.clone().oneshot(req).await.unwrap();
     let status = r.status().as_u16();
     let bytes = axum::body::to_bytes(r.into_body(), 1 << 20).await.unwrap();
-    (status, String::from_utf8_lossy(&bytes).into_owned())
+    (status, bytes.to_vec())
 }
 
 #[tokio::test]
@@ -158,5 +172,28 @@ async fn the_sign_in_cookie_works_and_its_actions_need_the_csrf_header() {
     assert_eq!(r.status(), StatusCode::SEE_OTHER);
     let cleared = r.headers()[header::SET_COOKIE].to_str().unwrap();
     assert!(cleared.starts_with(&format!("{COOKIE}=;")) && cleared.contains("Max-Age=0"));
+    std::fs::remove_dir_all(dir).ok();
+}
+
+#[tokio::test]
+async fn a_look_brings_the_jobs_facts_when_asked() {
+    let (app, [_, client, _], dir) = setup("facts");
+    let auth = format!("Bearer {client}");
+    let h = [("authorization", auth.as_str())];
+    // Without facts=1: the image's answer only (here its 28-byte header).
+    let (s, plain) = call_bytes(&app, "GET", "/api/jobs/1/live?from=0&merged=0", &h).await;
+    assert_eq!((s, plain.len()), (200, 28));
+    // With: then the facts fragment's HTML, after its length.
+    let (s, with) = call_bytes(&app, "GET", "/api/jobs/1/live?from=0&merged=0&facts=1", &h).await;
+    assert_eq!(s, 200);
+    assert_eq!(with[..28], plain[..]);
+    let n = u32::from_le_bytes(with[28..32].try_into().unwrap()) as usize;
+    assert_eq!(with.len(), 32 + n);
+    let html = std::str::from_utf8(&with[32..]).unwrap();
+    let (_, fragment) = call(&app, "GET", "/fragments/job/1", &h).await;
+    assert_eq!(html, fragment, "the same facts the fragment shows");
+    assert!(html.contains("1/4"), "{html}");
+    // Still only one's own job.
+    assert_eq!(call(&app, "GET", "/api/jobs/2/live?facts=1", &h).await.0, 404);
     std::fs::remove_dir_all(dir).ok();
 }
