@@ -2,7 +2,7 @@
 //! live `WatchJob` streams each tick, and a dashboard page's look at a job.
 
 use super::outbox::GrpcOutbox;
-use super::{LIVE_AT_MOST_EVERY, LIVE_BATCH_PIXELS};
+use super::{LIVE_AT_MOST_EVERY, LIVE_BATCH_PIXELS, LIVE_EVERY};
 use crate::live::shift;
 use crate::scheduler::{FinishedJob, JobUpdate, Scheduler, Snapshot};
 use farm_common::film::FilmGeometry;
@@ -123,13 +123,30 @@ pub(super) fn live_answer(
     }
 }
 
+/// When [`send_live`] is called.
+#[derive(Clone, Copy, PartialEq, Eq, Debug)]
+pub(super) enum Pace {
+    /// Right after the jobs in `GrpcOutbox::progressed` were sent a
+    /// progress event: a preview sent now goes down the same stream in the
+    /// same write, so its reader wakes once for both.
+    WithProgress,
+    /// The once-a-second tick, for what waits when no progress comes.
+    Tick,
+}
+
 /// Sends each live watcher the pieces that changed since it last took
-/// some, if it has room for them: one event a tick at most, so a reader
-/// that falls behind is sent larger catch-ups, never a queue; and only
-/// once [`LIVE_BATCH_PIXELS`] wait or [`LIVE_AT_MOST_EVERY`] has passed.
-pub(super) fn send_live(sched: &Scheduler, out: &mut GrpcOutbox, now: Instant) {
+/// some, if it has room for them: one event at a time at most, so a reader
+/// that falls behind is sent larger catch-ups, never a queue. Beside a
+/// progress event, at most once every [`LIVE_EVERY`] and once
+/// [`LIVE_BATCH_PIXELS`] wait or [`LIVE_AT_MOST_EVERY`] has passed; at a
+/// tick, only what has waited [`LIVE_AT_MOST_EVERY`].
+pub(super) fn send_live(sched: &Scheduler, out: &mut GrpcOutbox, now: Instant, pace: Pace) {
+    let progressed = std::mem::take(&mut out.progressed);
     out.live.retain(|job, list| {
         let Some(film) = sched.film(*job) else { return false };
+        if pace == Pace::WithProgress && !progressed.contains(job) {
+            return true;
+        }
         let b = film.geometry().cropped_pixel_bounds;
         list.retain_mut(|(tx, cursor, sent)| {
             if tx.is_closed() {
@@ -140,7 +157,15 @@ pub(super) fn send_live(sched: &Scheduler, out: &mut GrpcOutbox, now: Instant) {
             }
             // A small film's batch is a quarter of it.
             let batch = LIVE_BATCH_PIXELS.min(b.area() / 4).max(1);
-            if cursor.waiting(film) < batch && now.duration_since(*sent) < LIVE_AT_MOST_EVERY {
+            let since = now.duration_since(*sent);
+            let due = match pace {
+                Pace::WithProgress => {
+                    since >= LIVE_EVERY
+                        && (cursor.waiting(film) >= batch || since >= LIVE_AT_MOST_EVERY)
+                }
+                Pace::Tick => since >= LIVE_AT_MOST_EVERY,
+            };
+            if !due {
                 return true;
             }
             // tev is shown the error map of the finished image only.

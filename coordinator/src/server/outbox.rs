@@ -34,6 +34,9 @@ pub(super) struct GrpcOutbox {
     /// Watchers of the image as it renders, each with what it has seen
     /// and when it was last sent an update (or started watching).
     pub(super) live: HashMap<JobId, Vec<(LiveTx, LiveCursor, Instant)>>,
+    /// Jobs with live watchers sent a progress event since previews were
+    /// last looked at (see `live::Pace::WithProgress`).
+    pub(super) progressed: Vec<JobId>,
     /// Where changes are made durable, with a state directory.
     pub(super) journal: Option<Journal>,
     /// What is counted for `/metrics`.
@@ -129,6 +132,9 @@ impl Outbox for GrpcOutbox {
         let final_update = !matches!(update, JobUpdate::Progress { .. });
         if let JobUpdate::Finished(f) = &update {
             self.recent.finished(job, f, Instant::now());
+        }
+        if !final_update && self.live.contains_key(&job) && !self.progressed.contains(&job) {
+            self.progressed.push(job);
         }
         if let Some(list) = self.watchers.get_mut(&job) {
             let events = job_events(&update);
