@@ -12,7 +12,7 @@
 //! The farm is real processes on loopback: an insecure coordinator, two
 //! workers of one thread, `farm submit --coordinator`. The "dashboard" is
 //! this program making the requests a job page's script makes: the live
-//! image at its pace (a look per 32 tiles merged, one to five seconds
+//! image at its pace (a look per 64 tiles merged, two to five seconds
 //! apart, the job's facts with a look every five seconds) and the
 //! finished image once the render ends. The coordinator's CPU is read a
 //! few seconds after both, once the journal has also finished with the

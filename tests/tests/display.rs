@@ -112,10 +112,10 @@ async fn on_the_farm_tev_sees_the_image_as_it_renders_and_ends_on_the_written_on
 }
 
 /// A farm's live watchers are paced by the work an update shows: each
-/// preview carries at least 32 tiles' worth of new pixels (a quarter of a
+/// preview carries at least 64 tiles' worth of new pixels (a quarter of a
 /// small film), unless 5 s passed since the one before. One worker of one
-/// thread merges fewer than 32 tiles a second here, so previews sent each
-/// second regardless would fail this.
+/// thread merges fewer than 32 tiles a second here, so previews sent every
+/// two seconds regardless would fail this.
 #[tokio::test(flavor = "multi_thread", worker_threads = 4)]
 async fn live_previews_come_in_batches_worth_sending() {
     use farm_cli::client::{self, RemoteOptions};

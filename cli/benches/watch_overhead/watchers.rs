@@ -104,12 +104,12 @@ pub fn dashboard(addr: String, stop: Arc<AtomicBool>) -> std::thread::JoinHandle
             if more {
                 continue;
             }
-            // The script's pace (`nextLook`): a look per 32 tiles merged,
-            // between one and five seconds apart.
+            // The script's pace (`nextLook`): a look per 64 tiles merged,
+            // between two and five seconds apart.
             let rate = f64::from(merged.saturating_sub(merged_at_look))
                 / last_look.elapsed().as_secs_f64().max(1e-3);
             (last_look, merged_at_look) = (Instant::now(), merged);
-            let wait = if rate > 0.0 { (32.0 / rate).clamp(1.0, 5.0) } else { 5.0 };
+            let wait = if rate > 0.0 { (64.0 / rate).clamp(2.0, 5.0) } else { 5.0 };
             let t = Instant::now();
             while t.elapsed().as_secs_f64() < wait && !stop.load(Ordering::Relaxed) {
                 std::thread::sleep(Duration::from_millis(20));

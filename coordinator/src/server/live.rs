@@ -130,7 +130,7 @@ pub(super) enum Pace {
     /// progress event: a preview sent now goes down the same stream in the
     /// same write, so its reader wakes once for both.
     WithProgress,
-    /// The once-a-second tick, for what waits when no progress comes.
+    /// The tick (every [`LIVE_EVERY`]), for what waits when no progress comes.
     Tick,
 }
 

@@ -28,17 +28,17 @@ use tonic::transport::{Identity, ServerTlsConfig};
 /// How often live watchers are sent what changed, at most. pbrt-v4
 /// updates tev every 250 ms from the rendering process itself; here an
 /// update costs the event loop, the watcher's stream and its HTTP/2
-/// connection a wakeup, so a farm's watchers are sent one a second at most
-/// (an embedded render still shows tev its changes every 250 ms,
+/// connection a wakeup, so a farm's watchers are sent one every two seconds
+/// at most (an embedded render still shows tev its changes every 250 ms,
 /// `farm_cli::display::INTERVAL`), and each goes out with a progress event
 /// the watcher is sent anyway (`live::Pace`).
-pub const LIVE_EVERY: Duration = Duration::from_millis(1000);
+pub const LIVE_EVERY: Duration = Duration::from_secs(2);
 
-/// A live watcher is sent an update once this many of its pixels (32
+/// A live watcher is sent an update once this many of its pixels (64
 /// tiles' worth) are waiting, so the fixed cost of an update stays a small
 /// part of the cost of merging the tiles it shows, however slowly a render
 /// goes…
-pub const LIVE_BATCH_PIXELS: usize = 32 * 16 * 16;
+pub const LIVE_BATCH_PIXELS: usize = 64 * 16 * 16;
 /// …or, with fewer waiting, once this long has passed since the last.
 pub const LIVE_AT_MOST_EVERY: Duration = Duration::from_secs(5);
 

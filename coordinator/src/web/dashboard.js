@@ -99,11 +99,11 @@ function heatColour(e) {
 }
 
 // How long to wait before the next look, in ms, given the tiles merged a
-// second since the last: a look per 32 new tiles, so a look's fixed cost
+// second since the last: a look per 64 new tiles, so a look's fixed cost
 // stays small next to the work it shows, but at least one every 5 s and at
-// most one a second (as the coordinator paces tev, server/mod.rs).
+// most one every 2 s (as the coordinator paces tev, server/mod.rs).
 function nextLook(rate) {
-  return rate > 0 ? Math.min(5000, Math.max(1000, 32000 / rate)) : 5000;
+  return rate > 0 ? Math.min(5000, Math.max(2000, 64000 / rate)) : 5000;
 }
 
 // A job page's pictures: poll the pieces changed since the last look.
