@@ -21,14 +21,14 @@ pub struct Primitive {
 }
 
 // A mesh has one primitive a triangle: its size is most of a mesh's memory.
-const _: () = assert!(std::mem::size_of::<Primitive>() == 40);
+const _: () = assert!(std::mem::size_of::<Primitive>() == 32);
 
 impl Primitive {
     /// Whether testing a ray against it costs about what a box test does
     /// (a triangle): such primitives may share a BVH leaf, where spheres,
     /// quadrics and curves keep a box each.
     pub fn cheap(&self) -> bool {
-        matches!(self.shape, Shape::Triangle(_))
+        matches!(self.shape, Shape::Triangle { .. })
     }
 }
 
@@ -124,13 +124,14 @@ impl Aggregate {
         // A triangle's interaction is built for the closest hit only; other
         // shapes build theirs as they are hit.
         enum Closest<'a> {
-            Triangle(&'a Triangle, [f32; 3]),
+            Triangle(Triangle<'a>, [f32; 3]),
             Other(SurfaceInteraction),
         }
         let mut best: Option<(f32, usize, Closest)> = None;
         self.bvh.intersect(ray, |i, r| {
             let (t, closest) = match &self.prims[i].shape {
-                Shape::Triangle(tri) => {
+                Shape::Triangle { mesh, v } => {
+                    let tri = Triangle { mesh, v: *v };
                     let (t, b) = tri.hit_barycentrics(r, true)?;
                     (t, Closest::Triangle(tri, b))
                 }

@@ -48,7 +48,7 @@ fn unit(rng: &mut Rng) -> Vec3 {
 
 fn render_points(shapes: &[Shape]) -> Vec<Vec3> {
     match shapes.first() {
-        Some(Shape::Triangle(t)) => t.mesh.p.clone(),
+        Some(Shape::Triangle { mesh, .. }) => mesh.p.clone(),
         _ => panic!("not a mesh"),
     }
 }
@@ -202,7 +202,7 @@ fn needle_triangles_and_grazing_rays_match_double_precision() {
             let p = [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.3 + 0.4 * rng.uniform_f32(), width, 0.0]];
             let shapes = mesh(&p, &[0, 1, 2], &xf);
             let rp = render_points(&shapes);
-            let Shape::Triangle(tri) = &shapes[0] else { unreachable!() };
+            let tri = shapes[0].triangle().expect("a triangle");
             // Aim at a random point of the triangle's neighbourhood.
             let b = [rng.uniform_f32() * 1.2 - 0.1, rng.uniform_f32() * 1.2 - 0.1];
             let target = rp[0] + b[0] * (rp[1] - rp[0]) + b[1] * (rp[2] - rp[0]);

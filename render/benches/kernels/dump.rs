@@ -63,13 +63,8 @@ pub fn run(dir: &Path) {
         // the bare traversal.
         let share = Aggregate::shares_leaf(prims.len());
         let (bare, ordered) = Bvh::build_over(prims, |p| p.shape.bounds(), share, max);
-        let tris: Vec<&farm_render::shapes::Triangle> = ordered
-            .iter()
-            .map(|p| match &p.shape {
-                Shape::Triangle(t) => t,
-                _ => unreachable!("meshes only"),
-            })
-            .collect();
+        let tris: Vec<farm_render::shapes::Triangle> =
+            ordered.iter().map(|p| p.shape.triangle().expect("meshes only")).collect();
         builds.push_str(&format!("{}\t{n}\t{build:.6}\n", scene.name));
         let tri_file = format!("{}_tris.bin", scene.name);
         let mut out = Vec::with_capacity(8 + n * 36);

@@ -3,7 +3,7 @@
 //! (`CreateTriangleMeshShape`), and moving any mesh's object-space data to
 //! render space as one shape per triangle.
 
-use super::triangle::{AlphaMask, AlphaTexture, Triangle, TriangleMesh};
+use super::triangle::{AlphaMask, AlphaTexture, TriangleMesh};
 use super::{Placement, Shape};
 use crate::textures::TextureSet;
 use farm_common::geometry::{Vec2, Vec3};
@@ -107,7 +107,7 @@ pub(super) fn build_mesh(
             skipped += 1;
             continue;
         }
-        out.push(Shape::Triangle(Triangle { mesh: mesh.clone(), v }));
+        out.push(Shape::Triangle { mesh: mesh.clone(), v });
     }
     if skipped > 0 {
         warn(

@@ -31,7 +31,9 @@ pub use sphere::Sphere;
 pub use triangle::{AlphaMask, AlphaTexture, Triangle, TriangleMesh};
 
 use crate::interaction::{Interaction, SurfaceInteraction};
+
 use farm_common::geometry::{Bounds3f, Ray, Vec2, Vec3};
+use std::sync::Arc;
 
 /// A shape of any kind; dispatch is a `match`, with no allocation per ray.
 #[derive(Clone, Debug)]
@@ -48,8 +50,16 @@ pub enum Shape {
     Paraboloid(Box<Paraboloid>),
     /// `hyperboloid`
     Hyperboloid(Box<Hyperboloid>),
-    /// One triangle of a `trianglemesh`, `loopsubdiv` or `heightfield`.
-    Triangle(Triangle),
+    /// One triangle of a `trianglemesh`, `loopsubdiv` or `heightfield`;
+    /// [`Shape::triangle`] borrows it as a [`Triangle`]. Its fields are
+    /// inline, not a struct, so the tag fits beside the indices: a shape
+    /// is 24 bytes, not 32, and a primitive 32.
+    Triangle {
+        /// The mesh.
+        mesh: Arc<TriangleMesh>,
+        /// Vertex indices into the mesh.
+        v: [u32; 3],
+    },
     /// One segment of a `curve`.
     Curve(Curve),
 }
@@ -63,13 +73,25 @@ macro_rules! dispatch {
             Shape::Cone($s) => $e,
             Shape::Paraboloid($s) => $e,
             Shape::Hyperboloid($s) => $e,
-            Shape::Triangle($s) => $e,
+            Shape::Triangle { mesh, v } => {
+                let $s = &Triangle { mesh, v: *v };
+                $e
+            }
             Shape::Curve($s) => $e,
         }
     };
 }
 
 impl Shape {
+    /// The triangle, if this is one.
+    #[inline(always)]
+    pub fn triangle(&self) -> Option<Triangle<'_>> {
+        match self {
+            Shape::Triangle { mesh, v } => Some(Triangle { mesh, v: *v }),
+            _ => None,
+        }
+    }
+
     /// Bounds in render space.
     pub fn bounds(&self) -> Bounds3f {
         dispatch!(self, s => s.bounds())
@@ -86,7 +108,7 @@ impl Shape {
     #[inline]
     pub fn intersect_no_alpha(&self, ray: &Ray) -> Option<(f32, SurfaceInteraction)> {
         match self {
-            Shape::Triangle(t) => t.intersect_with(ray, false),
+            Shape::Triangle { mesh, v } => Triangle { mesh, v: *v }.intersect_with(ray, false),
             _ => dispatch!(self, s => s.intersect(ray)),
         }
     }
@@ -110,7 +132,7 @@ impl Shape {
             Shape::Sphere(s) => s.sample_area(u),
             Shape::Cylinder(s) => s.sample_area(u),
             Shape::Disk(s) => s.sample_area(u),
-            Shape::Triangle(s) => s.sample_area(u),
+            Shape::Triangle { mesh, v } => Triangle { mesh, v: *v }.sample_area(u),
             _ => (Interaction::default(), 0.0),
         }
     }

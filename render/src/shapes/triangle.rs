@@ -64,11 +64,14 @@ pub struct TriangleMesh {
     pub shadow_alpha: AlphaMask,
 }
 
-/// One triangle of a mesh.
-#[derive(Clone, Debug)]
-pub struct Triangle {
+/// One triangle of a mesh, borrowed from the [`Shape::Triangle`] that
+/// holds it (whose fields are inline so a shape stays 24 bytes).
+///
+/// [`Shape::Triangle`]: super::Shape::Triangle
+#[derive(Clone, Copy, Debug)]
+pub struct Triangle<'a> {
     /// The mesh.
-    pub mesh: Arc<TriangleMesh>,
+    pub mesh: &'a TriangleMesh,
     /// Vertex indices into the mesh.
     pub v: [u32; 3],
 }
@@ -79,7 +82,7 @@ struct RawHit {
     t: f32,
 }
 
-impl Triangle {
+impl Triangle<'_> {
     #[inline(always)]
     fn points(&self) -> (Vec3, Vec3, Vec3) {
         let p = &self.mesh.p;
@@ -216,7 +219,7 @@ impl Triangle {
 
     /// The surface interaction at barycentrics `b` of a hit by `ray`.
     pub fn interaction(&self, ray: &Ray, b: [f32; 3]) -> SurfaceInteraction {
-        let mesh = &*self.mesh;
+        let mesh = self.mesh;
         let (p0, p1, p2) = self.points();
         let [b0, b1, b2] = b;
         let uv = self.uvs();
@@ -275,7 +278,7 @@ impl Triangle {
         uv: &[Vec2; 3],
         flip: bool,
     ) {
-        let mesh = &*self.mesh;
+        let mesh = self.mesh;
         let [i0, i1, i2] = self.v.map(|i| i as usize);
         let ns = match &mesh.n {
             Some(n) => {
@@ -333,7 +336,7 @@ impl Triangle {
     /// Whether the ray hits (shadow rays: both alpha masks apply).
     pub fn intersect_p(&self, ray: &Ray) -> bool {
         let Some(h) = self.raw_hit(ray) else { return false };
-        let m = &*self.mesh;
+        let m = self.mesh;
         !(self.cuts(&m.alpha, ray, h.b) || self.cuts(&m.shadow_alpha, ray, h.b))
     }
 
@@ -367,9 +370,10 @@ impl Triangle {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::shapes::Shape;
     use farm_common::rng::Rng;
 
-    fn octahedron(scale: f32, offset: Vec3) -> Vec<Triangle> {
+    fn octahedron(scale: f32, offset: Vec3) -> Vec<Shape> {
         let p: Vec<Vec3> = [Vec3::X, -Vec3::X, Vec3::Y, -Vec3::Y, Vec3::Z, -Vec3::Z]
             .iter()
             .map(|&v| v * scale + offset)
@@ -385,7 +389,11 @@ mod tests {
             [3, 1, 5],
             [0, 3, 5],
         ];
-        idx.iter().map(|&v| Triangle { mesh: mesh.clone(), v }).collect()
+        idx.iter().map(|&v| Shape::Triangle { mesh: mesh.clone(), v }).collect()
+    }
+
+    fn views(shapes: &[Shape]) -> Vec<Triangle<'_>> {
+        shapes.iter().map(|s| s.triangle().expect("a triangle")).collect()
     }
 
     /// Rays aimed exactly at shared edges and vertices of a closed mesh never slip through.
@@ -393,7 +401,8 @@ mod tests {
     fn watertight_at_edges_and_vertices() {
         let mut rng = Rng::new(5);
         for (scale, offset) in [(1.0, Vec3::ZERO), (3.7, Vec3::new(1e3, -250.0, 17.0))] {
-            let tris = octahedron(scale, offset);
+            let shapes = octahedron(scale, offset);
+            let tris = views(&shapes);
             let p = &tris[0].mesh.p;
             let edges = [
                 (0, 2),
@@ -447,7 +456,8 @@ mod tests {
 
     #[test]
     fn barycentric_hit_and_uv_defaults() {
-        let tris = octahedron(1.0, Vec3::ZERO);
+        let shapes = octahedron(1.0, Vec3::ZERO);
+        let tris = views(&shapes);
         let r = Ray::new(Vec3::new(0.2, 0.2, 5.0), -Vec3::Z, 0.0);
         let (t, si) = tris[0].intersect(&r).expect("hit");
         assert!((t - 4.4).abs() < 1e-5);
