@@ -17,8 +17,16 @@ const PARALLEL_THRESHOLD: usize = 64 * 1024;
 #[derive(Clone, Copy, Debug)]
 pub(super) struct PrimInfo {
     pub(super) bounds: Bounds3f,
+    /// The original index, with [`COSTLY`] set for a primitive that keeps
+    /// a box of its own.
     pub(super) index: u32,
 }
+
+/// The bit of [`PrimInfo::index`] that marks a primitive costly to test
+/// (a sphere, a curve), which never shares a leaf: a flag inside the index
+/// rather than a byte per primitive beside it, since the build's peak
+/// memory is a large mesh's.
+pub(super) const COSTLY: u32 = 1 << 31;
 
 impl PrimInfo {
     /// The centroid's coordinate on `axis` (as `Bounds3f::centroid`).
@@ -92,20 +100,16 @@ impl Extent {
 }
 
 /// What a build is asked for.
-pub(super) struct Limits<'a> {
+pub(super) struct Limits {
     /// pbrt-v3's `maxnodeprims`.
     pub(super) max_prims: usize,
-    /// Which primitives (by original index) are cheap to test, as a
-    /// triangle is against a box; `None`: all are.
-    pub(super) cheap: Option<&'a [bool]>,
 }
 
-impl Limits<'_> {
+impl Limits {
     /// Whether the primitives of `info` may share one leaf rather than each
     /// sit behind its own box: at most `max_prims` of them, all cheap.
     fn one_leaf(&self, info: &[PrimInfo]) -> bool {
-        info.len() <= self.max_prims
-            && self.cheap.is_none_or(|c| info.iter().all(|p| c[p.index as usize]))
+        info.len() <= self.max_prims && info.iter().all(|p| p.index & COSTLY == 0)
     }
 }
 
@@ -152,12 +156,14 @@ pub(super) fn build_node(
     let (left, right) = info.split_at_mut(mid);
     let right_base = base + mid as u32;
     if n > PARALLEL_THRESHOLD && rayon::current_num_threads() > 1 {
-        let (mut ln, mut rn) = (Vec::new(), Vec::new());
+        // The first child goes straight into `nodes`, the second into a
+        // vector of its own that is then moved over: only the second
+        // child's nodes are ever held twice.
+        let mut rn = Vec::new();
         rayon::join(
-            || build_node(left, base, depth + 1, limits, left_ext, &mut ln),
+            || build_node(left, base, depth + 1, limits, left_ext, nodes),
             || build_node(right, right_base, depth + 1, limits, right_ext, &mut rn),
         );
-        append_shifted(nodes, &ln);
         nodes[me].offset = nodes.len() as u32;
         append_shifted(nodes, &rn);
     } else {
