@@ -3,15 +3,16 @@
 //! 1. Farm overhead: one scene rendered embedded (`farm submit`) and through
 //!    a coordinator and one worker *process* on loopback, which needs
 //!    `cargo build --release -p farm-cli` first.
-//! 2. Coordinator capacity: an in-process coordinator fed by many fake
-//!    workers that answer every assignment at once with a precomputed tile,
-//!    so the only real work is the coordinator's (and the client's).
+//! 2. Coordinator capacity: a coordinator *process* (journal included) fed
+//!    by 1, 100 and 10,000 fake workers in this process that answer every
+//!    assignment at once with a precomputed tile. The coordinator's own CPU
+//!    seconds, read from /proc, give tiles per second per coordinator core,
+//!    with the client's and the fake workers' CPU left out.
 
 use farm_cli::client::{self, RemoteOptions};
 use farm_cli::embedded::{self as submit, SubmitOptions};
 use farm_common::film::FilmGeometry;
 use farm_common::ids::TileId;
-use farm_coordinator::server::{serve, ServerConfig};
 use farm_proto::v1::{
     self, coordinator_client::CoordinatorClient, coordinator_message, tile_result, worker_message,
 };
@@ -24,17 +25,18 @@ use std::process::{Child, Command, Stdio};
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 use tokio::runtime::Runtime;
-use tokio::sync::{mpsc, oneshot};
+use tokio::sync::mpsc;
 use tokio_stream::wrappers::UnboundedReceiverStream;
 
 /// Runs of each variant in table 1.
 const RUNS: usize = 5;
-/// Fake worker counts of table 2.
-const FAKE_WORKERS: [usize; 3] = [8, 32, 128];
+/// Fake worker counts of table 2 (`FARM_FAKE_WORKERS`, e.g. "1,100").
+const FAKE_WORKERS: [usize; 3] = [1, 100, 10_000];
+/// Connections the fake workers share: each holds its Work stream on one
+/// of them, as HTTP/2 streams, so 10,000 workers need no 10,000 sockets.
+const FAKE_CONNECTIONS: usize = 64;
 /// Runs of each row of table 2.
 const CAPACITY_RUNS: usize = 3;
-/// Tiles each fake worker may hold.
-const FAKE_IN_FLIGHT: u32 = 16;
 
 /// The capacity job: a big film of trivial content. 2048² is the largest
 /// square whose finished image (12 bytes a pixel) fits in one 64 MiB gRPC
@@ -66,8 +68,9 @@ fn main() {
 
 // ---------------------------------------------------------------- table 1
 
-/// Child processes killed when dropped, also on panic.
-struct Procs(Vec<Child>);
+/// Child processes killed when dropped, also on panic, and the state
+/// directory they used, then removed.
+struct Procs(Vec<Child>, PathBuf);
 
 impl Procs {
     /// CPU seconds (user + system) each process has used so far.
@@ -82,6 +85,7 @@ impl Drop for Procs {
             let _ = c.kill();
             let _ = c.wait();
         }
+        let _ = std::fs::remove_dir_all(&self.1);
     }
 }
 
@@ -133,7 +137,10 @@ fn start_farm(bin: &Path, rt: &Runtime) -> (Procs, String) {
             .spawn()
             .unwrap_or_else(|e| panic!("starting {} {args:?}: {e}", bin.display()))
     };
-    let mut procs = Procs(vec![spawn(&["coordinator", "--listen", &addr])]);
+    let state = std::env::temp_dir().join(format!("farm-bench-{}-{addr}", std::process::id()));
+    let dir = state.to_str().expect("utf-8 temp dir");
+    let coordinator = spawn(&["coordinator", "--insecure", "--listen", &addr, "--state-dir", dir]);
+    let mut procs = Procs(vec![coordinator], state);
     rt.block_on(wait_for_workers(&url, 0));
     procs.0.push(spawn(&["worker", "--coordinator", &url, "--threads", "2"]));
     rt.block_on(wait_for_workers(&url, 1));
@@ -262,7 +269,9 @@ struct Tiles {
 
 impl Tiles {
     fn new(geometry: FilmGeometry) -> Self {
-        let px: Vec<u8> = [0.5f32, 0.5, 0.5, 1.0].iter().flat_map(|v| v.to_le_bytes()).collect();
+        // Σw·rgb and Σw, then the same over the second half's samples.
+        let sums = [0.5f32, 0.5, 0.5, 1.0, 0.25, 0.25, 0.25, 0.5];
+        let px: Vec<u8> = sums.iter().flat_map(|v| v.to_le_bytes()).collect();
         let mut bytes = HashMap::new();
         for t in 0..geometry.tile_count() {
             let b = geometry.tile_pixel_bounds(TileId(t));
@@ -283,9 +292,11 @@ impl Tiles {
     }
 }
 
-/// Registers, opens the Work stream and answers every assignment at once.
-async fn fake_worker(url: String, tiles: Arc<Tiles>) {
-    let mut c = CoordinatorClient::connect(url).await.expect("connect");
+/// Registers over `channel`, opens the Work stream and answers every
+/// assignment at once; returns once the stream is open, leaving a task that
+/// answers until the coordinator goes.
+async fn fake_worker(channel: tonic::transport::Channel, tiles: Arc<Tiles>, in_flight: u32) {
+    let mut c = CoordinatorClient::new(channel);
     let reg = v1::RegisterWorkerRequest {
         protocol_version: PROTOCOL_VERSION,
         name: "fake".into(),
@@ -295,72 +306,111 @@ async fn fake_worker(url: String, tiles: Arc<Tiles>) {
     let (tx, rx) = mpsc::unbounded_channel();
     let hello = v1::Hello {
         worker_id: reply.worker_id,
-        max_in_flight: FAKE_IN_FLIGHT,
+        max_in_flight: in_flight,
         session_key: reply.session_key,
     };
     tx.send(v1::WorkerMessage { kind: Some(worker_message::Kind::Hello(hello)) }).expect("hello");
     let mut inbound = c.work(UnboundedReceiverStream::new(rx)).await.expect("work").into_inner();
-    while let Ok(Some(msg)) = inbound.message().await {
-        let Some(coordinator_message::Kind::Assign(a)) = msg.kind else { continue };
-        let result = v1::TileResult {
-            job_id: a.job_id,
-            tile: a.tile,
-            attempt: a.attempt,
-            outcome: Some(tile_result::Outcome::FilmTile(tiles.tile(a.tile))),
-            stats: None,
-        };
-        let msg = v1::WorkerMessage { kind: Some(worker_message::Kind::Result(result)) };
-        if tx.send(msg).is_err() {
-            break;
+    tokio::spawn(async move {
+        while let Ok(Some(msg)) = inbound.message().await {
+            let Some(coordinator_message::Kind::Assign(a)) = msg.kind else { continue };
+            let result = v1::TileResult {
+                job_id: a.job_id,
+                tile: a.tile,
+                attempt: a.attempt,
+                outcome: Some(tile_result::Outcome::FilmTile(tiles.tile(a.tile))),
+                stats: None,
+            };
+            let msg = v1::WorkerMessage { kind: Some(worker_message::Kind::Result(result)) };
+            if tx.send(msg).is_err() {
+                break;
+            }
         }
-    }
+    });
 }
 
-/// Seconds to the last tile's progress event and to the image, or why not.
+/// One capacity run's measures: wall and coordinator CPU seconds from the
+/// submit call to the progress event reporting every tile merged, and to
+/// the finished image received.
+struct Capacity {
+    wall_last: f64,
+    cpu_last: f64,
+    wall_image: f64,
+    cpu_image: f64,
+}
+
+/// A fresh coordinator process with `workers` fake workers, one job.
 async fn capacity_run(
+    bin: &Path,
     workers: usize,
     scene: &Path,
     tiles: &Arc<Tiles>,
-) -> Result<(f64, f64), String> {
-    let listener = tokio::net::TcpListener::bind("127.0.0.1:0").await.expect("bind");
-    let url = format!("http://{}", listener.local_addr().expect("addr"));
-    let (stop, stopped) = oneshot::channel::<()>();
-    let config = ServerConfig::with_heartbeat(Duration::from_secs(5));
-    let server = tokio::spawn(serve(listener, config, async {
-        let _ = stopped.await;
-    }));
-    let fakes: Vec<_> =
-        (0..workers).map(|_| tokio::spawn(fake_worker(url.clone(), tiles.clone()))).collect();
+) -> Result<Capacity, String> {
+    let addr = format!("127.0.0.1:{}", free_port());
+    let url = format!("http://{addr}");
+    let state = std::env::temp_dir().join(format!("farm-bench-{}-{addr}", std::process::id()));
+    let state_dir = state.to_str().expect("utf-8 temp dir").to_string();
+    // Heartbeats are not what is measured: fake workers send none, and
+    // must not be dropped as silent while they wait for tiles.
+    let coordinator = Command::new(bin)
+        .args(["coordinator", "--insecure", "--listen", &addr, "--state-dir", &state_dir])
+        .args(["--heartbeat", "60"])
+        .stdout(Stdio::null())
+        .stderr(Stdio::null())
+        .spawn()
+        .map_err(|e| format!("starting {}: {e}", bin.display()))?;
+    let procs = Procs(vec![coordinator], state);
+    wait_for_workers(&url, 0).await;
+    let mut channels = Vec::new();
+    for _ in 0..FAKE_CONNECTIONS.min(workers) {
+        let endpoint = tonic::transport::Endpoint::from_shared(url.clone()).expect("url");
+        channels.push(endpoint.connect().await.map_err(|e| e.to_string())?);
+    }
+    // As many tiles in flight as a worker of 16 threads asks for, but no
+    // more slots in all than the job has tiles.
+    let in_flight = (tiles.geometry.tile_count() as usize / workers).clamp(1, 32) as u32;
+    let mut joining = tokio::task::JoinSet::new();
+    for w in 0..workers {
+        let (channel, tiles) = (channels[w % channels.len()].clone(), tiles.clone());
+        joining.spawn(fake_worker(channel, tiles, in_flight));
+        if joining.len() >= 256 {
+            joining.join_next().await;
+        }
+    }
+    joining.join_all().await;
     wait_for_workers(&url, workers).await;
 
-    let t = Instant::now();
+    let pid = procs.0[0].id().to_string();
+    let cpu = || cpu_seconds(&pid).ok_or("no /proc reading of the coordinator".to_string());
+    let (t, cpu0) = (Instant::now(), cpu()?);
     let mut last_tile = None;
     let opts = RemoteOptions::default();
     let remote = farm_cli::client::Remote::insecure(&url);
     let job = client::submit(&remote, scene, &opts, |_, p| {
         if p.tiles_done == p.tiles_total && last_tile.is_none() {
-            last_tile = Some(t.elapsed().as_secs_f64());
+            last_tile = Some((t.elapsed().as_secs_f64(), cpu_seconds(&pid)));
         }
     });
-    let result = match tokio::time::timeout(Duration::from_secs(120), job).await {
-        Ok(Ok(_)) => {
-            let total = t.elapsed().as_secs_f64();
-            Ok((last_tile.unwrap_or(total), total))
-        }
-        Ok(Err(e)) => Err(e.to_string()),
-        Err(_) => Err("timed out after 120 s".into()),
-    };
-
-    let _ = stop.send(());
-    let _ = tokio::time::timeout(Duration::from_secs(10), server).await;
-    for f in fakes {
-        f.abort();
+    match tokio::time::timeout(Duration::from_secs(300), job).await {
+        Ok(Ok(_)) => {}
+        Ok(Err(e)) => return Err(e.to_string()),
+        Err(_) => return Err("timed out after 300 s".into()),
     }
-    result
+    let (wall_image, cpu_image) = (t.elapsed().as_secs_f64(), cpu()? - cpu0);
+    let (wall_last, cpu_last) = match last_tile {
+        Some((w, Some(c))) => (w, c - cpu0),
+        _ => (wall_image, cpu_image),
+    };
+    drop(procs);
+    Ok(Capacity { wall_last, cpu_last, wall_image, cpu_image })
 }
 
 fn capacity_table(rt: &Runtime) {
-    println!("Coordinator capacity: in-process coordinator, fake workers answering at once");
+    println!("Coordinator capacity: a coordinator process, fake workers in this process answering at once");
+    let Some(bin) = farm_binary() else {
+        println!("skipped: no target/release/farm; run `cargo build --release -p farm-cli` first");
+        return;
+    };
     let dir = std::env::temp_dir().join(format!("farm-bench-{}", std::process::id()));
     std::fs::create_dir_all(&dir).expect("temp dir");
     let scene = dir.join("capacity.pbrt");
@@ -371,23 +421,31 @@ fn capacity_table(rt: &Runtime) {
         film_and_sampler(&desc, &RenderOptions { spp: None, ..Default::default() });
     let n = geometry.tile_count();
     let tiles = Arc::new(Tiles::new(geometry));
+    let counts: Vec<usize> = match std::env::var("FARM_FAKE_WORKERS") {
+        Ok(v) => v.split(',').filter_map(|c| c.trim().parse().ok()).collect(),
+        Err(_) => FAKE_WORKERS.to_vec(),
+    };
     println!(
-        "{:>7} {:>7} | {:>12} {:>12} | {:>12} {:>12}",
-        "", "", "to last tile", "", "to image", ""
+        "{:>7} {:>7} | {:>10} {:>10} {:>12} | {:>10} {:>10} {:>12}",
+        "", "", "to last", "tile", "", "to image", "", ""
     );
     println!(
-        "{:>7} {:>7} | {:>12} {:>12} | {:>12} {:>12}",
-        "workers", "tiles", "best tiles/s", "med tiles/s", "best tiles/s", "med tiles/s"
+        "{:>7} {:>7} | {:>10} {:>10} {:>12} | {:>10} {:>10} {:>12}",
+        "workers",
+        "tiles",
+        "tiles/s",
+        "µs/tile",
+        "tiles/s/core",
+        "tiles/s",
+        "µs/tile",
+        "tiles/s/core"
     );
-    for workers in FAKE_WORKERS {
-        let (mut last, mut total) = (Vec::new(), Vec::new());
+    for workers in counts {
+        let mut runs = Vec::new();
         let mut failure = None;
         for _ in 0..CAPACITY_RUNS {
-            match rt.block_on(capacity_run(workers, &scene, &tiles)) {
-                Ok((l, t)) => {
-                    last.push(l);
-                    total.push(t);
-                }
+            match rt.block_on(capacity_run(&bin, workers, &scene, &tiles)) {
+                Ok(c) => runs.push(c),
                 Err(e) => failure = Some(e),
             }
         }
@@ -395,25 +453,35 @@ fn capacity_table(rt: &Runtime) {
             println!("{workers:>7} {n:>7} failed: {e}");
             continue;
         }
-        let (l_min, l_med) = min_median(&mut last);
-        let (t_min, t_med) = min_median(&mut total);
+        // Medians over the runs, each column on its own.
+        let median = |f: &dyn Fn(&Capacity) -> f64| {
+            let mut v: Vec<f64> = runs.iter().map(f).collect();
+            min_median(&mut v).1
+        };
+        let per_tile = |s: f64| 1e6 * s / n as f64;
         let rate = |s: f64| n as f64 / s;
+        let (wl, cl) = (median(&|c| c.wall_last), median(&|c| c.cpu_last));
+        let (wi, ci) = (median(&|c| c.wall_image), median(&|c| c.cpu_image));
         println!(
-            "{workers:>7} {n:>7} | {:>12.0} {:>12.0} | {:>12.0} {:>12.0}",
-            rate(l_min),
-            rate(l_med),
-            rate(t_min),
-            rate(t_med)
+            "{workers:>7} {n:>7} | {:>10.0} {:>10.1} {:>12.0} | {:>10.0} {:>10.1} {:>12.0}",
+            rate(wl),
+            per_tile(cl),
+            rate(cl),
+            rate(wi),
+            per_tile(ci),
+            rate(ci)
         );
     }
     let _ = std::fs::remove_dir_all(&dir);
     println!(
-        "{CAPACITY_RUNS} runs each. To last tile = submit call to the progress event that \
-         reports every tile merged (dispatch and merge, the goal's measure: > 50,000 tiles/s); \
-         to image = submit call to the finished {}×{} image received by the client. Client, \
-         fake workers and coordinator share this machine's {} cores.",
+        "Medians of {CAPACITY_RUNS} runs, each on a fresh coordinator with its journal. To last \
+         tile = from the submit call to the progress event reporting every tile merged \
+         (dispatch, merge, journal); to image = to the finished {}×{} image received by the \
+         client. tiles/s = tiles over wall seconds; µs/tile and tiles/s/core = the coordinator \
+         process's own CPU seconds (user + system, /proc, 10 ms ticks) per tile and their \
+         inverse, so the client's and the fake workers' CPU is left out. The fake workers share \
+         {FAKE_CONNECTIONS} connections and ask for tiles/workers tiles each (1 to 32).",
         tiles.geometry.cropped_pixel_bounds.width(),
         tiles.geometry.cropped_pixel_bounds.height(),
-        std::thread::available_parallelism().map_or(0, |n| n.get())
     );
 }
