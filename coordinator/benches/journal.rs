@@ -1,0 +1,70 @@
+//! `cargo bench -p farm-coordinator --bench journal`: what the journal costs
+//! a merged tile. Writes the records of a 2048×2048 job (16,384 tiles of
+//! 16×16 pixels: a hand-out and a merged tile each) to a journal in a
+//! temporary directory, as fast as they come, and prints wall and CPU
+//! microseconds per tile (this process's CPU: the journal's writer thread
+//! does the work) and the database's bytes per tile. Medians of 5 runs.
+
+use farm_common::film::{FilmTile, Pixel};
+use farm_common::geometry::{Bounds2i, Point2i};
+use farm_common::stats::RayStats;
+use farm_coordinator::state::{encode_tile, Command, Journal};
+use std::time::Instant;
+
+const TILES: u32 = 16_384;
+const RUNS: usize = 5;
+
+/// User + system CPU seconds of this process, from /proc (Linux).
+fn cpu_seconds() -> f64 {
+    let stat = std::fs::read_to_string("/proc/self/stat").unwrap_or_default();
+    let rest = stat.rfind(')').map_or("", |i| &stat[i + 2..]);
+    let f: Vec<f64> = rest.split_whitespace().filter_map(|v| v.parse().ok()).collect();
+    f.get(11).zip(f.get(12)).map_or(0.0, |(u, s)| (u + s) / 100.0)
+}
+
+fn main() {
+    let rt = tokio::runtime::Builder::new_current_thread().enable_all().build().expect("runtime");
+    let bounds = Bounds2i::new(Point2i::new(0, 0), Point2i::new(16, 16));
+    let pixel = Pixel {
+        contrib: [0.5, 0.25, 0.125],
+        weight: 1.0,
+        second_contrib: [0.25, 0.125, 0.0625],
+        second_weight: 0.5,
+    };
+    let tile = FilmTile { pixel_bounds: bounds, pixels: vec![pixel; bounds.area()] };
+    let data = encode_tile(&tile, &RayStats::default());
+    let (mut wall, mut cpu, mut bytes) = (Vec::new(), Vec::new(), 0u64);
+    for run in 0..RUNS {
+        let dir =
+            std::env::temp_dir().join(format!("farm-journal-bench-{}-{run}", std::process::id()));
+        std::fs::create_dir_all(&dir).expect("temp dir");
+        let db = dir.join("farm.db");
+        let (journal, _) = Journal::open(Some(&db)).expect("journal");
+        let (t, c) = (Instant::now(), cpu_seconds());
+        for tile in 0..TILES {
+            journal.send(Command::HandedOut { job: 1, tile, n: 1 });
+            journal.send(Command::Merged { job: 1, tile, data: data.clone() });
+        }
+        rt.block_on(journal.flush());
+        wall.push(t.elapsed().as_secs_f64());
+        cpu.push(cpu_seconds() - c);
+        bytes = std::fs::read_dir(&dir)
+            .map(|d| d.flatten().filter_map(|e| e.metadata().ok()).map(|m| m.len()).sum())
+            .unwrap_or(0);
+        drop(journal);
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+    let median = |v: &mut Vec<f64>| {
+        v.sort_by(f64::total_cmp);
+        v[v.len() / 2]
+    };
+    let per_tile = |s: f64| 1e6 * s / TILES as f64;
+    println!("journal: {TILES} tiles of {} bytes each, median of {RUNS} runs", data.len());
+    println!("{:>12} {:>12} {:>14}", "wall µs/tile", "CPU µs/tile", "db bytes/tile");
+    println!(
+        "{:>12.1} {:>12.1} {:>14.0}",
+        per_tile(median(&mut wall)),
+        per_tile(median(&mut cpu)),
+        bytes as f64 / TILES as f64
+    );
+}
