@@ -123,17 +123,16 @@ impl Aggregate {
     pub fn intersect(&self, ray: &Ray) -> Option<(f32, Hit<'_>)> {
         // A triangle's interaction is built for the closest hit only; other
         // shapes build theirs as they are hit.
-        enum Closest<'a> {
-            Triangle(Triangle<'a>, [f32; 3]),
+        enum Closest {
+            Triangle([f32; 3]),
             Other(SurfaceInteraction),
         }
         let mut best: Option<(f32, usize, Closest)> = None;
         self.bvh.intersect(ray, |i, r| {
             let (t, closest) = match &self.prims[i].shape {
                 Shape::Triangle { mesh, v } => {
-                    let tri = Triangle { mesh, v: *v };
-                    let (t, b) = tri.hit_barycentrics(r, true)?;
-                    (t, Closest::Triangle(tri, b))
+                    let (t, b) = Triangle { mesh, v: *v }.hit_barycentrics(r, true)?;
+                    (t, Closest::Triangle(b))
                 }
                 shape => {
                     let (t, si) = shape.intersect(r)?;
@@ -146,7 +145,8 @@ impl Aggregate {
         let (t, i, closest) = best?;
         let prim = &self.prims[i];
         let mut si = match closest {
-            Closest::Triangle(tri, b) => tri.interaction(ray, b),
+            // Barycentrics are only ever recorded for a triangle.
+            Closest::Triangle(b) => prim.shape.triangle()?.interaction(ray, b),
             Closest::Other(si) => si,
         };
         si.prim = i as u32;

@@ -127,6 +127,7 @@ impl Shape {
     /// A point on the surface with its normal and error bound, and the
     /// density with respect to area. pbrt-v3 cannot sample cones,
     /// paraboloids, hyperboloids or curves; those return density 0.
+    #[inline]
     pub fn sample_area(&self, u: Vec2) -> (Interaction, f32) {
         match self {
             Shape::Sphere(s) => s.sample_area(u),

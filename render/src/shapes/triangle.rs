@@ -218,7 +218,7 @@ impl Triangle<'_> {
     }
 
     /// The surface interaction at barycentrics `b` of a hit by `ray`.
-    pub fn interaction(&self, ray: &Ray, b: [f32; 3]) -> SurfaceInteraction {
+    pub fn interaction(self, ray: &Ray, b: [f32; 3]) -> SurfaceInteraction {
         let mesh = self.mesh;
         let (p0, p1, p2) = self.points();
         let [b0, b1, b2] = b;
