@@ -143,6 +143,8 @@ impl CoordinatorService {
 #[derive(Default)]
 struct Registry {
     workers: HashMap<WorkerId, Registration>,
+    /// How many registrations the last sweep of unused ones left.
+    after_sweep: usize,
 }
 
 struct Registration {
@@ -158,10 +160,19 @@ struct Registration {
 /// this long, so registrations alone cannot fill the coordinator's memory.
 const UNUSED_REGISTRATION: Duration = Duration::from_secs(60);
 
+/// Registrations are swept once there are twice as many as the last sweep
+/// left, and at least this many: the sweep costs O(1) a registration, not
+/// a scan of every worker (10,000 workers registering made 10⁸ checks),
+/// and at most twice what a sweep on every call would keep is held.
+const SWEEP_FROM: usize = 64;
+
 impl Registry {
     fn register(&mut self, id: WorkerId, name: String, threads: u32) -> Result<[u8; 32], Status> {
         let now = std::time::Instant::now();
-        self.workers.retain(|_, r| r.live || now.duration_since(r.at) < UNUSED_REGISTRATION);
+        if self.workers.len() >= (2 * self.after_sweep).max(SWEEP_FROM) {
+            self.workers.retain(|_, r| r.live || now.duration_since(r.at) < UNUSED_REGISTRATION);
+            self.after_sweep = self.workers.len();
+        }
         let mut key = [0u8; 32];
         getrandom::fill(&mut key).map_err(|e| Error::Random(e.to_string()))?;
         self.workers.insert(id, Registration { name, threads, key, at: now, live: false });
