@@ -333,6 +333,8 @@ async fn fake_worker(channel: tonic::transport::Channel, tiles: Arc<Tiles>, in_f
 /// submit call to the progress event reporting every tile merged, and to
 /// the finished image received.
 struct Capacity {
+    /// Seconds to register every fake worker and open its Work stream.
+    register: f64,
     wall_last: f64,
     cpu_last: f64,
     wall_image: f64,
@@ -361,6 +363,7 @@ async fn capacity_run(
         .map_err(|e| format!("starting {}: {e}", bin.display()))?;
     let procs = Procs(vec![coordinator], state);
     wait_for_workers(&url, 0).await;
+    let registering = Instant::now();
     let mut channels = Vec::new();
     for _ in 0..FAKE_CONNECTIONS.min(workers) {
         let endpoint = tonic::transport::Endpoint::from_shared(url.clone()).expect("url");
@@ -379,6 +382,7 @@ async fn capacity_run(
     }
     joining.join_all().await;
     wait_for_workers(&url, workers).await;
+    let register = registering.elapsed().as_secs_f64();
 
     let pid = procs.0[0].id().to_string();
     let cpu = || cpu_seconds(&pid).ok_or("no /proc reading of the coordinator".to_string());
@@ -402,7 +406,7 @@ async fn capacity_run(
         _ => (wall_image, cpu_image),
     };
     drop(procs);
-    Ok(Capacity { wall_last, cpu_last, wall_image, cpu_image })
+    Ok(Capacity { register, wall_last, cpu_last, wall_image, cpu_image })
 }
 
 fn capacity_table(rt: &Runtime) {
@@ -463,7 +467,8 @@ fn capacity_table(rt: &Runtime) {
         let (wl, cl) = (median(&|c| c.wall_last), median(&|c| c.cpu_last));
         let (wi, ci) = (median(&|c| c.wall_image), median(&|c| c.cpu_image));
         println!(
-            "{workers:>7} {n:>7} | {:>10.0} {:>10.1} {:>12.0} | {:>10.0} {:>10.1} {:>12.0}",
+            "{workers:>7} {n:>7} {:>9.2} | {:>10.0} {:>10.1} {:>12.0} | {:>10.0} {:>10.1} {:>12.0}",
+            median(&|c| c.register),
             rate(wl),
             per_tile(cl),
             rate(cl),
@@ -474,7 +479,8 @@ fn capacity_table(rt: &Runtime) {
     }
     let _ = std::fs::remove_dir_all(&dir);
     println!(
-        "Medians of {CAPACITY_RUNS} runs, each on a fresh coordinator with its journal. To last \
+        "Medians of {CAPACITY_RUNS} runs, each on a fresh coordinator with its journal. Joined = \
+         wall seconds to register every fake worker and open its Work stream. To last \
          tile = from the submit call to the progress event reporting every tile merged \
          (dispatch, merge, journal); to image = to the finished {}×{} image received by the \
          client. tiles/s = tiles over wall seconds; µs/tile and tiles/s/core = the coordinator \
