@@ -129,11 +129,12 @@ fn main() {
             base = Some((rss, tris));
         }
         println!(
-            "{tris:>10} {startup:>10.3} {:>16.2} {ns_per_ray:>9.1} {:>16.2} {rss:>8.1} {bytes_per_tri:>10.0}",
+            "{tris:>10} {startup:>10.3} {:>16.2} {ns_per_ray:>9.1} {:>16.2} {rss:>8.1} {bytes_per_tri:>10.1}",
             startup * 1e9 / (tris as f64 * log_n),
             ns_per_ray / log_n
         );
         let _ = std::fs::remove_file(&ply);
     }
+    let _ = std::fs::remove_dir_all(&dir);
     println!("bytes/tri: peak RSS growth over the smallest mesh, per added triangle");
 }
