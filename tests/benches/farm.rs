@@ -19,14 +19,13 @@ use farm_proto::v1::{
 use farm_proto::PROTOCOL_VERSION;
 use farm_render::render::film_and_sampler;
 use farm_render::RenderOptions;
+use farm_tests::fake::open_session;
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Stdio};
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 use tokio::runtime::Runtime;
-use tokio::sync::mpsc;
-use tokio_stream::wrappers::UnboundedReceiverStream;
 
 /// Runs of each variant in table 1.
 const RUNS: usize = 5;
@@ -125,24 +124,35 @@ async fn wait_for_workers(url: &str, n: usize) {
     }
 }
 
-/// A coordinator process and, once it answers, one worker process of two threads.
-fn start_farm(bin: &Path, rt: &Runtime) -> (Procs, String) {
+/// Starts `bin` with `args`, its output discarded.
+fn spawn(bin: &Path, args: &[&str]) -> Child {
+    Command::new(bin)
+        .args(args)
+        .stdout(Stdio::null())
+        .stderr(Stdio::null())
+        .spawn()
+        .unwrap_or_else(|e| panic!("starting {} {args:?}: {e}", bin.display()))
+}
+
+/// An insecure coordinator process on loopback with a state directory of
+/// its own (removed with it) and `extra` arguments, once it answers; and
+/// its URL.
+async fn start_coordinator(bin: &Path, extra: &[&str]) -> (Procs, String) {
     let addr = format!("127.0.0.1:{}", free_port());
     let url = format!("http://{addr}");
-    let spawn = |args: &[&str]| {
-        Command::new(bin)
-            .args(args)
-            .stdout(Stdio::null())
-            .stderr(Stdio::null())
-            .spawn()
-            .unwrap_or_else(|e| panic!("starting {} {args:?}: {e}", bin.display()))
-    };
     let state = std::env::temp_dir().join(format!("farm-bench-{}-{addr}", std::process::id()));
     let dir = state.to_str().expect("utf-8 temp dir");
-    let coordinator = spawn(&["coordinator", "--insecure", "--listen", &addr, "--state-dir", dir]);
-    let mut procs = Procs(vec![coordinator], state);
-    rt.block_on(wait_for_workers(&url, 0));
-    procs.0.push(spawn(&["worker", "--coordinator", &url, "--threads", "2"]));
+    let mut args = vec!["coordinator", "--insecure", "--listen", &addr, "--state-dir", dir];
+    args.extend(extra);
+    let procs = Procs(vec![spawn(bin, &args)], state);
+    wait_for_workers(&url, 0).await;
+    (procs, url)
+}
+
+/// A coordinator process and, once it answers, one worker process of two threads.
+fn start_farm(bin: &Path, rt: &Runtime) -> (Procs, String) {
+    let (mut procs, url) = rt.block_on(start_coordinator(bin, &[]));
+    procs.0.push(spawn(bin, &["worker", "--coordinator", &url, "--threads", "2"]));
     rt.block_on(wait_for_workers(&url, 1));
     (procs, url)
 }
@@ -303,14 +313,9 @@ async fn fake_worker(channel: tonic::transport::Channel, tiles: Arc<Tiles>, in_f
         threads: 1,
     };
     let reply = c.register_worker(reg).await.expect("register").into_inner();
-    let (tx, rx) = mpsc::unbounded_channel();
-    let hello = v1::Hello {
-        worker_id: reply.worker_id,
-        max_in_flight: in_flight,
-        session_key: reply.session_key,
-    };
-    tx.send(v1::WorkerMessage { kind: Some(worker_message::Kind::Hello(hello)) }).expect("hello");
-    let mut inbound = c.work(UnboundedReceiverStream::new(rx)).await.expect("work").into_inner();
+    let (tx, mut inbound) = open_session(&mut c, reply.worker_id, &reply.session_key, in_flight)
+        .await
+        .expect("work stream");
     tokio::spawn(async move {
         while let Ok(Some(msg)) = inbound.message().await {
             let Some(coordinator_message::Kind::Assign(a)) = msg.kind else { continue };
@@ -348,21 +353,9 @@ async fn capacity_run(
     scene: &Path,
     tiles: &Arc<Tiles>,
 ) -> Result<Capacity, String> {
-    let addr = format!("127.0.0.1:{}", free_port());
-    let url = format!("http://{addr}");
-    let state = std::env::temp_dir().join(format!("farm-bench-{}-{addr}", std::process::id()));
-    let state_dir = state.to_str().expect("utf-8 temp dir").to_string();
     // Heartbeats are not what is measured: fake workers send none, and
     // must not be dropped as silent while they wait for tiles.
-    let coordinator = Command::new(bin)
-        .args(["coordinator", "--insecure", "--listen", &addr, "--state-dir", &state_dir])
-        .args(["--heartbeat", "60"])
-        .stdout(Stdio::null())
-        .stderr(Stdio::null())
-        .spawn()
-        .map_err(|e| format!("starting {}: {e}", bin.display()))?;
-    let procs = Procs(vec![coordinator], state);
-    wait_for_workers(&url, 0).await;
+    let (procs, url) = start_coordinator(bin, &["--heartbeat", "60"]).await;
     let registering = Instant::now();
     let mut channels = Vec::new();
     for _ in 0..FAKE_CONNECTIONS.min(workers) {
