@@ -58,38 +58,102 @@ pub fn parse_file(path: &Path) -> Result<(SceneDescription, Vec<Warning>)> {
 /// search directory for each file it is given); asset keys are relative to
 /// the first file's directory. There is always at least one scene.
 pub fn parse_files<P: AsRef<Path>>(paths: &[P]) -> Result<Vec<(SceneDescription, Vec<Warning>)>> {
-    let first = paths.first().map(AsRef::as_ref).unwrap_or(Path::new("-"));
-    let dir_of = |p: &Path| {
-        let d =
-            if p == Path::new("-") { Path::new("") } else { p.parent().unwrap_or(Path::new("")) };
-        if d.as_os_str().is_empty() {
-            Path::new(".").to_path_buf()
-        } else {
-            d.to_path_buf()
-        }
-    };
-    let mut p = parser::Parser::new(&scene_name(first));
-    let base = dir_of(first);
-    p.builder.root = std::fs::canonicalize(&base).unwrap_or_else(|_| base.clone());
-    for path in paths {
-        let path = path.as_ref();
+    SceneStream::new(paths).map(|r| r.map(|s| (s.desc, s.warnings))).collect()
+}
+
+/// One scene of a [`SceneStream`].
+pub struct StreamedScene {
+    /// The scene.
+    pub desc: SceneDescription,
+    /// The parser's warnings about it.
+    pub warnings: Vec<Warning>,
+    /// Which of the stream's files its `WorldEnd` (or the input's end) is in.
+    pub file: usize,
+}
+
+/// Scene files read as [`parse_files`] reads them, a file at a time: each
+/// scene is handed out once the file it ends in has been read, so a shot
+/// of many frames holds one frame's scenes at a time, not all of them.
+/// After an error it yields nothing more.
+pub struct SceneStream {
+    paths: Vec<std::path::PathBuf>,
+    next: usize,
+    parser: parser::Parser,
+    ready: std::collections::VecDeque<StreamedScene>,
+    handed: usize,
+    done: bool,
+}
+
+impl SceneStream {
+    /// A stream over `paths` (`-` is standard input; `.gz` is read
+    /// compressed); asset keys are relative to the first file's directory.
+    pub fn new<P: AsRef<Path>>(paths: &[P]) -> SceneStream {
+        let paths: Vec<std::path::PathBuf> =
+            paths.iter().map(|p| p.as_ref().to_path_buf()).collect();
+        let first = paths.first().map(|p| p.as_path()).unwrap_or(Path::new("-"));
+        let mut parser = parser::Parser::new(&scene_name(first));
+        let base = dir_of(first);
+        parser.builder.root = std::fs::canonicalize(&base).unwrap_or_else(|_| base.clone());
+        SceneStream { paths, next: 0, parser, ready: Default::default(), handed: 0, done: false }
+    }
+
+    /// Reads the next file, queueing the scenes it finished.
+    fn read_next(&mut self) -> Result<()> {
+        let i = self.next;
+        self.next += 1;
+        let path = self.paths[i].clone();
         let file = if path == Path::new("-") {
             "<stdin>".to_string()
         } else {
             path.to_string_lossy().into_owned()
         };
         let start = FileLoc { file: file.clone(), line: 1, column: 1 };
-        let text = read_scene_text(path, &start)?;
-        let dir = dir_of(path);
-        p.builder.search_dir.clone_from(&dir);
-        p.parse_text(&text, &file, &dir)?;
+        let text = read_scene_text(&path, &start)?;
+        let dir = dir_of(&path);
+        self.parser.builder.search_dir.clone_from(&dir);
+        self.parser.parse_text(&text, &file, &dir)?;
+        self.parser.close_ended();
+        for (desc, warnings) in self.parser.finished.drain(..) {
+            self.ready.push_back(StreamedScene { desc, warnings, file: i });
+        }
+        Ok(())
     }
-    let mut scenes = std::mem::take(&mut p.finished);
-    if p.started || scenes.is_empty() {
-        let end = std::mem::take(&mut p.end);
-        scenes.push(p.builder.finish(&end));
+}
+
+impl Iterator for SceneStream {
+    type Item = Result<StreamedScene>;
+
+    fn next(&mut self) -> Option<Self::Item> {
+        while self.ready.is_empty() && !self.done {
+            if self.next < self.paths.len() {
+                if let Err(e) = self.read_next() {
+                    self.done = true;
+                    return Some(Err(e));
+                }
+            } else {
+                self.done = true;
+                // Input after the last WorldEnd, or no WorldEnd at all.
+                if self.parser.started || self.handed == 0 {
+                    let (desc, warnings) = self.parser.finish_rest();
+                    let file = self.paths.len().saturating_sub(1);
+                    self.ready.push_back(StreamedScene { desc, warnings, file });
+                }
+            }
+        }
+        let s = self.ready.pop_front()?;
+        self.handed += 1;
+        Some(Ok(s))
     }
-    Ok(scenes)
+}
+
+/// The directory a scene file's relative paths resolve against.
+fn dir_of(p: &Path) -> std::path::PathBuf {
+    let d = if p == Path::new("-") { Path::new("") } else { p.parent().unwrap_or(Path::new("")) };
+    if d.as_os_str().is_empty() {
+        Path::new(".").to_path_buf()
+    } else {
+        d.to_path_buf()
+    }
 }
 
 /// The scene's name: its file's stem (`scene` for standard input).

@@ -71,6 +71,20 @@ impl Parser {
         Ok(())
     }
 
+    /// Hands the scene a `WorldEnd` closed to `finished`, if one did (at
+    /// the end of a file: otherwise it waits for the next directive).
+    pub fn close_ended(&mut self) {
+        if self.builder.block == Block::Done {
+            self.next_scene();
+        }
+    }
+
+    /// The scene the input ended in without a `WorldEnd`.
+    pub fn finish_rest(&mut self) -> (SceneDescription, Vec<Warning>) {
+        let end = std::mem::take(&mut self.end);
+        std::mem::replace(&mut self.builder, Builder::new("")).finish(&end)
+    }
+
     /// Finishes the scene a `WorldEnd` closed and starts the next from
     /// pbrt-v3's defaults (the files it reads still resolve as before).
     fn next_scene(&mut self) {

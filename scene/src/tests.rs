@@ -284,6 +284,22 @@ fn several_files_are_one_stream_of_scenes() {
     std::fs::write(dir.join("bad.pbrt.gz"), b"not gzip").unwrap();
     let e = crate::parse_files(&[dir.join("bad.pbrt.gz")]).unwrap_err().to_string();
     assert!(e.contains("bad.pbrt.gz"), "{e}");
+
+    // As a stream: each scene comes as soon as the file it ends in is read,
+    // with that file's index, before a later file is even opened.
+    let files = [dir.join("two.pbrt"), dir.join("options.pbrt"), dir.join("world.pbrt.gz")];
+    let mut stream = crate::SceneStream::new(&[&files[..], &[dir.join("missing.pbrt")]].concat());
+    let mut got = Vec::new();
+    for _ in 0..2 {
+        let s = stream.next().unwrap().unwrap();
+        got.push((res(&s.desc), s.file));
+    }
+    assert_eq!(got, [(8, 0), (9, 0)]);
+    let s = stream.next().unwrap().unwrap();
+    assert_eq!((res(&s.desc), s.file), (7, 2), "options and world make the third scene");
+    let e = stream.next().unwrap().err().expect("the missing file").to_string();
+    assert!(e.contains("missing.pbrt"), "{e}");
+    assert!(stream.next().is_none(), "nothing after an error");
     std::fs::remove_dir_all(dir).ok();
 }
 
