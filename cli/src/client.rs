@@ -133,13 +133,8 @@ pub async fn start_parsed(
     opts: &RemoteOptions,
 ) -> Result<Submitted, Error> {
     opts.overrides.apply(&mut desc, &mut warnings);
-    let outside: Vec<String> =
-        desc.assets.keys().filter(|k| farm_scene::is_outside(k)).cloned().collect();
-    if !outside.is_empty() && !opts.allow_assets_outside {
-        let folder = scene.parent().filter(|p| !p.as_os_str().is_empty()).unwrap_or(Path::new("."));
-        return Err(Error::AssetsOutside { folder: folder.display().to_string(), paths: outside });
-    }
-    let (manifest, assets) = encode_scene(&desc).map_err(|e| Error::Protocol(e.to_string()))?;
+    check_outside(&desc, scene, opts.allow_assets_outside)?;
+    let (manifest, assets) = encode_scene(&mut desc).map_err(|e| Error::Protocol(e.to_string()))?;
     let mut client = connect(remote).await?;
     for blob in assets.iter().chain(std::iter::once(&manifest)) {
         upload(&mut client, blob).await?;
@@ -150,13 +145,25 @@ pub async fn start_parsed(
             scene_hash: manifest.hash.to_vec(),
             spp: opts.spp.unwrap_or(0),
             priority: opts.priority,
-            name: scene.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default(),
+            name: crate::shot::file_name(scene),
             detach: opts.detach,
         })
         .await?
         .into_inner()
         .job_id;
     Ok(Submitted { job, client, desc, warnings, startup_seconds: start.elapsed().as_secs_f64() })
+}
+
+/// Refuses a scene read from `scene` that names files outside its folder,
+/// unless they may be sent.
+pub fn check_outside(desc: &SceneDescription, scene: &Path, allowed: bool) -> Result<(), Error> {
+    let outside: Vec<String> =
+        desc.assets.keys().filter(|k| farm_scene::is_outside(k)).cloned().collect();
+    if !outside.is_empty() && !allowed {
+        let folder = scene.parent().filter(|p| !p.as_os_str().is_empty()).unwrap_or(Path::new("."));
+        return Err(Error::AssetsOutside { folder: folder.display().to_string(), paths: outside });
+    }
+    Ok(())
 }
 
 /// Parses `scene` here, uploads it, renders it on the farm and returns the

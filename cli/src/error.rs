@@ -41,6 +41,9 @@ pub enum Error {
     /// A token file that cannot be read or holds no token.
     #[error("{0}")]
     Token(String),
+    /// The command line asks for something that cannot be done.
+    #[error("{0}")]
+    Usage(String),
     /// The coordinator refused or failed a call.
     #[error("the coordinator says: {}", .0.message())]
     Rpc(#[from] tonic::Status),
@@ -82,6 +85,7 @@ impl Error {
             | Error::Build(_)
             | Error::Film(_)
             | Error::AssetsOutside { .. }
+            | Error::Usage(_)
             | Error::Reference(_)
             | Error::SizeMismatch { .. } => ExitCode::from(EXIT_BAD_INPUT),
             _ => ExitCode::FAILURE,

@@ -27,10 +27,14 @@ pub mod display;
 pub mod embedded;
 /// The CLI's errors and their exit codes.
 pub mod error;
+/// A shot's frames: their inputs, numbers and output names.
+pub mod frames;
 /// The terminal progress bar.
 pub mod progress;
 /// The async runtime and shutdown signals.
 pub mod runtime;
+/// A shot's frames rendered on a farm.
+pub mod shot;
 
 pub use error::{Error, Result};
 

@@ -58,6 +58,8 @@ pub struct Metrics {
     pub rays_per_second: Gauge<f64, AtomicU64>,
     /// Bytes in the blob store.
     pub blob_bytes: Gauge,
+    /// Bytes uploads brought in (a blob sent twice counts twice).
+    pub blob_uploaded: Counter,
 }
 
 impl Default for Metrics {
@@ -127,6 +129,13 @@ impl Metrics {
             Unit::Bytes,
             blob_bytes.clone(),
         );
+        let blob_uploaded = Counter::default();
+        r.register_with_unit(
+            "blob_upload",
+            "Bytes received by blob uploads, each time a blob is sent",
+            Unit::Bytes,
+            blob_uploaded.clone(),
+        );
         Metrics {
             registry: r,
             jobs,
@@ -141,6 +150,7 @@ impl Metrics {
             rays,
             rays_per_second,
             blob_bytes,
+            blob_uploaded,
         }
     }
 

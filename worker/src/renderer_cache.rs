@@ -6,7 +6,7 @@
 use crate::blob_cache::{hex, BlobCache, BlobSource};
 use crate::error::Error;
 use crate::pool::CpuPool;
-use farm_proto::convert::{decode_manifest, Hash};
+use farm_proto::convert::{attach_asset, decode_manifest, Hash};
 use farm_render::{RenderOptions, Renderer};
 use std::collections::HashMap;
 use std::sync::atomic::{AtomicU64, Ordering};
@@ -138,7 +138,7 @@ impl RendererCache {
         // Assets come verified from the blob cache.
         for (key, hash) in assets {
             let data = blobs.get_or_fetch(source, hash).await.map_err(fetch_failed)?;
-            desc.assets.insert(key, data.as_ref().clone());
+            attach_asset(&mut desc, key, &data).map_err(|e| bad_scene(e.to_string()))?;
         }
 
         let opts = RenderOptions { spp: (spp > 0).then_some(spp), ..Default::default() };
@@ -169,7 +169,7 @@ mod tests {
 
     #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
     async fn concurrent_requests_build_a_scene_once() {
-        let (manifest, assets) = farm_proto::convert::encode_scene(&tiny_scene(16)).unwrap();
+        let (manifest, assets) = farm_proto::convert::encode_scene(&mut tiny_scene(16)).unwrap();
         let blobs = std::iter::once(manifest.data.as_ref().clone())
             .chain(assets.iter().map(|b| b.data.as_ref().clone()));
         let source = MapSource::new(blobs);

@@ -95,7 +95,7 @@ pub async fn start_fake(
 
 /// The scene's manifest hash and all its blobs.
 pub fn scene_blobs(desc: &SceneDescription) -> (Hash, Vec<Vec<u8>>) {
-    let (manifest, assets) = farm_proto::convert::encode_scene(desc).unwrap();
+    let (manifest, assets) = farm_proto::convert::encode_scene(&mut desc.clone()).unwrap();
     let all = std::iter::once(&manifest).chain(&assets).map(|b| b.data.as_ref().clone()).collect();
     (manifest.hash, all)
 }

@@ -6,6 +6,7 @@ pub mod converge;
 pub mod coordinator;
 pub mod diff;
 pub mod health;
+pub mod shot;
 pub mod status;
 pub mod submit;
 pub mod token;

@@ -11,12 +11,24 @@ use std::process::ExitCode;
 pub struct SubmitArgs {
     /// The pbrt-v3 scene files, read as pbrt-v3 reads them: one stream,
     /// each WorldEnd rendering a scene (`-` is standard input; `.pbrt.gz`
-    /// is read compressed).
+    /// is read compressed; a folder gives its .pbrt files in name order).
+    /// Several scenes are a shot: each is a frame with its own image.
     #[arg(required = true, num_args = 1..)]
     pub scenes: Vec<PathBuf>,
-    /// Output image (.exr, .pfm or .png); default: the scene's Film filename.
+    /// Output image (.exr, .pfm or .png); default: the scene's Film
+    /// filename. For a shot, a name with the frame number in it, as
+    /// printf writes it: out/frame-%04d.exr.
     #[arg(short, long, visible_alias = "outfile")]
     pub output: Option<PathBuf>,
+    /// The number of a shot's first frame (the rest follow in order).
+    #[arg(long, default_value_t = 1, value_name = "N")]
+    pub first_frame: u32,
+    /// How many of a shot's frames may be on the farm unfinished at once:
+    /// the next frames' tiles wait in the queue, so no worker idles
+    /// between frames (with --coordinator).
+    #[arg(long, default_value_t = 3, value_name = "N",
+          value_parser = clap::value_parser!(u32).range(1..=crate::shot::MAX_IN_FLIGHT as i64))]
+    pub frames_in_flight: u32,
     /// Samples per pixel, overriding the scene's sampler.
     #[arg(long, value_parser = clap::value_parser!(u32).range(1..))]
     pub spp: Option<u32>,
@@ -89,36 +101,48 @@ pub struct SubmitArgs {
     pub limits: super::LimitArgs,
 }
 
-/// Renders where the arguments say: each scene the files describe, in turn.
-pub fn run(args: SubmitArgs) -> ExitCode {
+/// Renders where the arguments say: one scene, or each scene the files
+/// describe as a shot's frames.
+pub fn run(mut args: SubmitArgs) -> ExitCode {
     let start = std::time::Instant::now();
-    let scenes = match farm_scene::parse_files(&args.scenes) {
-        Ok(s) => s,
-        Err(e) => return fail(&e.into()),
+    let inputs = match crate::frames::expand_inputs(&args.scenes) {
+        Ok(i) => i,
+        Err(e) => return fail(&e),
     };
-    if scenes.len() > 1 && args.output.is_some() {
-        eprintln!(
-            "error: --output names one image but the files describe {} scenes; without it each scene's Film filename is used",
-            scenes.len()
-        );
-        return ExitCode::from(crate::EXIT_BAD_INPUT);
-    }
     if args.cat || args.toply {
-        return print_scenes(&args, &scenes);
-    }
-    let first = args.scenes[0].clone();
-    for (desc, warnings) in scenes {
-        let scene = Parsed { file: first.clone(), desc, warnings, start };
-        let code = if args.coordinator.is_some() {
-            crate::runtime::block_on(run_remote(&args, scene))
-        } else {
-            run_embedded(&args, scene)
+        return match farm_scene::parse_files(&inputs) {
+            Ok(scenes) => print_scenes(&args, &scenes),
+            Err(e) => fail(&e.into()),
         };
-        if code != ExitCode::SUCCESS {
-            return code;
-        }
     }
-    ExitCode::SUCCESS
+    let mut stream = farm_scene::SceneStream::new(&inputs).peekable();
+    let first = match stream.next() {
+        Some(Ok(s)) => s,
+        Some(Err(e)) => return fail(&e.into()),
+        None => return fail(&crate::error::Error::Usage("no scene to render".into())),
+    };
+    if inputs.len() > 1 || stream.peek().is_some() {
+        return super::shot::run(&args, &inputs, first, stream, start);
+    }
+    // One scene: an output name with a frame number is frame --first-frame.
+    let one = crate::frames::Outputs::new(
+        args.output.as_deref(),
+        args.error_map.as_deref(),
+        args.first_frame,
+        1,
+    )
+    .and_then(|mut o| o.claim(0, ""));
+    match one {
+        Ok(out) => (args.output, args.error_map) = (out.image, out.error_map),
+        Err(e) => return fail(&e),
+    }
+    let scene =
+        Parsed { file: inputs[0].clone(), desc: first.desc, warnings: first.warnings, start };
+    if args.coordinator.is_some() {
+        crate::runtime::block_on(run_remote(&args, scene))
+    } else {
+        run_embedded(&args, scene)
+    }
 }
 
 /// `--cat` and `--toply`: the scenes as text on standard output.
@@ -151,13 +175,13 @@ fn print_scenes(
 }
 
 /// One scene the command line's files describe.
-struct Parsed {
+pub(super) struct Parsed {
     /// The first file (the job's name; its folder bounds the assets sent).
-    file: PathBuf,
-    desc: farm_common::scene::SceneDescription,
-    warnings: Vec<farm_common::scene::Warning>,
+    pub file: PathBuf,
+    pub desc: farm_common::scene::SceneDescription,
+    pub warnings: Vec<farm_common::scene::Warning>,
     /// When parsing began.
-    start: std::time::Instant,
+    pub start: std::time::Instant,
 }
 
 async fn run_remote(args: &SubmitArgs, scene: Parsed) -> ExitCode {
@@ -166,17 +190,7 @@ async fn run_remote(args: &SubmitArgs, scene: Parsed) -> ExitCode {
         Err(e) => return fail(&e),
     };
     let remote = crate::client::Remote { url: args.coordinator.clone().unwrap_or_default(), token };
-    let opts = crate::client::RemoteOptions {
-        output: args.output.clone(),
-        spp: args.spp,
-        priority: args.priority,
-        allow_assets_outside: args.allow_assets_outside,
-        detach: args.detach,
-        reconnect_for: reconnect_for(args.reconnect_for),
-        overrides: overrides(args),
-        display_server: args.display_server.clone(),
-        quiet: args.quiet,
-    };
+    let opts = remote_options(args);
     if args.detach {
         let Parsed { file, desc, warnings, start } = scene;
         return match crate::client::start_parsed(&remote, &file, desc, warnings, start, &opts).await
@@ -208,13 +222,28 @@ async fn run_remote(args: &SubmitArgs, scene: Parsed) -> ExitCode {
         .await;
     bar.finish_and_clear();
     match result {
-        Ok(summary) => finish(args, summary),
+        Ok(summary) => finish(args, summary, args.error_map.as_deref()),
         Err(e) => fail(&e),
     }
 }
 
+/// How the command line asks for a render on the farm.
+pub(super) fn remote_options(args: &SubmitArgs) -> crate::client::RemoteOptions {
+    crate::client::RemoteOptions {
+        output: args.output.clone(),
+        spp: args.spp,
+        priority: args.priority,
+        allow_assets_outside: args.allow_assets_outside,
+        detach: args.detach,
+        reconnect_for: reconnect_for(args.reconnect_for),
+        overrides: overrides(args),
+        display_server: args.display_server.clone(),
+        quiet: args.quiet,
+    }
+}
+
 /// What the command line changes in the scene.
-fn overrides(args: &SubmitArgs) -> farm_scene::Overrides {
+pub(super) fn overrides(args: &SubmitArgs) -> farm_scene::Overrides {
     farm_scene::Overrides {
         crop_window: args.cropwindow.as_deref().map(|c| [c[0], c[1], c[2], c[3]]),
         quick: args.quick,
@@ -222,9 +251,16 @@ fn overrides(args: &SubmitArgs) -> farm_scene::Overrides {
     }
 }
 
-fn run_embedded(args: &SubmitArgs, scene: Parsed) -> ExitCode {
+/// Renders one scene here, writes its image to `output` (default: its
+/// Film filename) and `error_map`, and prints its summary.
+pub(super) fn run_embedded_to(
+    args: &SubmitArgs,
+    scene: Parsed,
+    output: Option<PathBuf>,
+    error_map: Option<&std::path::Path>,
+) -> ExitCode {
     let opts = SubmitOptions {
-        output: args.output.clone(),
+        output,
         spp: args.spp,
         threads: args.threads,
         all_paths: false,
@@ -244,13 +280,22 @@ fn run_embedded(args: &SubmitArgs, scene: Parsed) -> ExitCode {
     });
     bar.finish_and_clear();
     match result {
-        Ok(summary) => finish(args, summary),
+        Ok(summary) => finish(args, summary, error_map),
         Err(e) => fail(&e),
     }
 }
 
-/// Prints warnings, writes the image and prints the summary line.
-fn finish(args: &SubmitArgs, summary: embedded::RenderSummary) -> ExitCode {
+fn run_embedded(args: &SubmitArgs, scene: Parsed) -> ExitCode {
+    run_embedded_to(args, scene, args.output.clone(), args.error_map.as_deref())
+}
+
+/// Prints warnings, writes the image (and the error map to `error_map`)
+/// and prints the summary line.
+pub fn finish(
+    args: &SubmitArgs,
+    summary: embedded::RenderSummary,
+    error_map: Option<&std::path::Path>,
+) -> ExitCode {
     if !args.quiet {
         for w in &summary.warnings {
             eprintln!("{w}");
@@ -259,7 +304,7 @@ fn finish(args: &SubmitArgs, summary: embedded::RenderSummary) -> ExitCode {
     if let Err(e) = embedded::write(&summary) {
         return fail(&e);
     }
-    if let Some(path) = &args.error_map {
+    if let Some(path) = error_map {
         match &summary.error {
             Some(error) => {
                 if let Err(e) = embedded::write_error_map(path, &summary, error) {

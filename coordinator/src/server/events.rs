@@ -265,6 +265,9 @@ pub async fn run(mut rx: mpsc::UnboundedReceiver<Event>, config: ServerConfig, s
                 m.queue_depth.set(g.queue_depth);
                 m.workers.set(g.workers);
                 m.blob_bytes.set(blobs.total_bytes() as i64);
+                // The counter follows the store's own count, which only grows.
+                let received = blobs.received_bytes();
+                m.blob_uploaded.inc_by(received.saturating_sub(m.blob_uploaded.get()));
                 let _ = reply.send(());
             }
             Event::Status { reply } => {

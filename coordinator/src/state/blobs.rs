@@ -90,6 +90,9 @@ struct Inner {
     limits: BlobLimits,
     journal: Journal,
     index: Mutex<Index>,
+    /// Bytes received by uploads, stored or not (a blob sent again is
+    /// counted again).
+    received: std::sync::atomic::AtomicU64,
 }
 
 impl Drop for Inner {
@@ -162,7 +165,14 @@ impl BlobStore {
         if !index.blobs.is_empty() {
             info!(blobs = index.blobs.len(), bytes = index.total, "blob store opened");
         }
-        let inner = Inner { dir, ephemeral, limits, journal, index: Mutex::new(index) };
+        let inner = Inner {
+            dir,
+            ephemeral,
+            limits,
+            journal,
+            index: Mutex::new(index),
+            received: Default::default(),
+        };
         Ok(BlobStore { inner: Arc::new(inner) })
     }
 
@@ -190,6 +200,11 @@ impl BlobStore {
     /// Bytes stored and being uploaded.
     pub fn total_bytes(&self) -> u64 {
         self.index().total
+    }
+
+    /// Bytes uploads have brought in, since the coordinator started.
+    pub fn received_bytes(&self) -> u64 {
+        self.inner.received.load(std::sync::atomic::Ordering::Relaxed)
     }
 
     /// The whole blob (for manifests, which the coordinator decodes).
@@ -306,6 +321,8 @@ impl Upload {
             self.file = Some(f);
         }
         self.hasher.update(&c.data);
+        let n = c.data.len() as u64;
+        self.store.inner.received.fetch_add(n, std::sync::atomic::Ordering::Relaxed);
         if let Some(f) = &mut self.file {
             f.write_all(&c.data).await.map_err(|e| Error::Store(e.to_string()))?;
         }

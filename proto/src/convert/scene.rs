@@ -4,7 +4,7 @@
 //! once however many jobs use it.
 
 use crate::error::Error;
-use farm_common::scene::SceneDescription;
+use farm_common::scene::{SceneDescription, ShapeEntity};
 use std::sync::Arc;
 
 /// A blake3 hash.
@@ -26,23 +26,75 @@ impl Blob {
     }
 }
 
-/// The manifest blob and the asset blobs of a scene.
-pub fn encode_scene(desc: &SceneDescription) -> Result<(Blob, Vec<Blob>), Error> {
-    let assets: Vec<(String, Blob)> =
+/// A shape whose parameters take at least this many bytes on the wire (a
+/// mesh of about 1,000 triangles and up) has them sent as a blob of their
+/// own, named in the manifest like an asset: a mesh that several frames of
+/// a shot share is then uploaded, stored and fetched once.
+pub const SHAPE_BLOB_FROM: usize = 16 << 10;
+
+/// The asset key of a shape's parameters sent apart: `\0shape/I` for
+/// the scene's shape I, `\0shape/O/I` for shape I of object O. No file
+/// name starts with a NUL, so these never meet a real asset's key.
+const SHAPE_KEY: &str = "\u{0}shape/";
+
+/// The manifest blob and the asset blobs of a scene (each blob once). The
+/// large shapes' parameters are taken out of `desc` while the manifest is
+/// written, and put back.
+pub fn encode_scene(desc: &mut SceneDescription) -> Result<(Blob, Vec<Blob>), Error> {
+    let mut assets: Vec<(String, Blob)> =
         desc.assets.iter().map(|(k, v)| (k.clone(), Blob::new(v.clone()))).collect();
+    // Each large shape's parameters, as a blob, and where they came from.
+    let mut moved: Vec<(String, farm_common::scene::ParamSet)> = Vec::new();
+    let mut shapes: Vec<(String, &mut ShapeEntity)> =
+        desc.shapes.iter_mut().enumerate().map(|(i, s)| (format!("{SHAPE_KEY}{i}"), s)).collect();
+    for (o, obj) in desc.objects.iter_mut().enumerate() {
+        shapes.extend(
+            obj.shapes.iter_mut().enumerate().map(|(i, s)| (format!("{SHAPE_KEY}{o}/{i}"), s)),
+        );
+    }
+    for (key, shape) in shapes {
+        let bytes = postcard::to_stdvec(&shape.entity.params)
+            .map_err(|e| Error::Malformed(e.to_string()))?;
+        if bytes.len() < SHAPE_BLOB_FROM {
+            continue;
+        }
+        assets.push((key.clone(), Blob::new(bytes)));
+        moved.push((key, std::mem::take(&mut shape.entity.params)));
+    }
     let refs: Vec<(&str, Hash)> = assets.iter().map(|(k, b)| (k.as_str(), b.hash)).collect();
-    let bytes = postcard::to_stdvec(&(desc, refs)).map_err(|e| Error::Malformed(e.to_string()))?;
-    Ok((Blob::new(bytes), assets.into_iter().map(|(_, b)| b).collect()))
+    let bytes = postcard::to_stdvec(&(&*desc, refs));
+    for (key, params) in moved {
+        if let Some(shape) = shape_at(desc, &key) {
+            shape.entity.params = params;
+        }
+    }
+    let bytes = bytes.map_err(|e| Error::Malformed(e.to_string()))?;
+    let mut blobs: Vec<Blob> = assets.into_iter().map(|(_, b)| b).collect();
+    blobs.sort_by_key(|b| b.hash);
+    blobs.dedup_by_key(|b| b.hash);
+    Ok((Blob::new(bytes), blobs))
 }
 
-/// The description in a manifest (with no assets yet) and the assets it
-/// needs, by key and hash.
+/// The shape a [`SHAPE_KEY`] key names, if it is one and the scene has it.
+fn shape_at<'d>(desc: &'d mut SceneDescription, key: &str) -> Option<&'d mut ShapeEntity> {
+    let rest = key.strip_prefix(SHAPE_KEY)?;
+    match rest.split_once('/') {
+        None => desc.shapes.get_mut(rest.parse::<usize>().ok()?),
+        Some((o, i)) => {
+            desc.objects.get_mut(o.parse::<usize>().ok()?)?.shapes.get_mut(i.parse::<usize>().ok()?)
+        }
+    }
+}
+
+/// The description in a manifest (with no assets yet, and no parameters
+/// in the shapes sent apart) and the assets it needs, by key and hash.
 pub fn decode_manifest(bytes: &[u8]) -> Result<(SceneDescription, Vec<(String, Hash)>), Error> {
     postcard::from_bytes(bytes).map_err(|e| Error::Malformed(e.to_string()))
 }
 
 /// The full description: the manifest's, with each asset looked up by hash
-/// through `fetch` and checked against its hash.
+/// through `fetch` and checked against its hash, and each shape's
+/// parameters sent apart put back.
 pub fn decode_scene(
     manifest: &[u8],
     mut fetch: impl FnMut(&Hash) -> Option<Arc<Vec<u8>>>,
@@ -53,15 +105,32 @@ pub fn decode_scene(
         let Some(data) = data else {
             return Err(Error::Asset { key });
         };
-        desc.assets.insert(key, data.as_ref().clone());
+        attach_asset(&mut desc, key, &data)?;
     }
     Ok(desc)
+}
+
+/// Puts an asset a manifest names (already checked against its hash) into
+/// the description from [`decode_manifest`]: a file's bytes into its
+/// assets, a shape's parameters sent apart back into the shape.
+pub fn attach_asset(desc: &mut SceneDescription, key: String, data: &[u8]) -> Result<(), Error> {
+    if !key.starts_with(SHAPE_KEY) {
+        desc.assets.insert(key, data.to_vec());
+        return Ok(());
+    }
+    let params = postcard::from_bytes(data)
+        .map_err(|e| Error::Malformed(format!("a shape's parameters: {e}")))?;
+    let Some(shape) = shape_at(desc, &key) else {
+        return Err(Error::Malformed(format!("no shape {:?} in the scene", &key[1..])));
+    };
+    shape.entity.params = params;
+    Ok(())
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
-    use farm_common::scene::{Entity, ShapeEntity};
+    use farm_common::scene::Entity;
 
     #[test]
     fn scenes_round_trip_with_assets_by_hash() {
@@ -75,7 +144,7 @@ mod tests {
             area_light: None,
             media: Default::default(),
         });
-        let (manifest, assets) = encode_scene(&desc).unwrap();
+        let (manifest, assets) = encode_scene(&mut desc).unwrap();
         assert_eq!(assets.len(), 1);
         let back = decode_scene(&manifest.data, |h| {
             (h == &assets[0].hash).then(|| assets[0].data.clone())
@@ -84,5 +153,57 @@ mod tests {
         assert_eq!(back, desc);
         // The manifest does not carry the asset bytes, and a corrupt asset is refused.
         assert!(decode_scene(&manifest.data, |_| Some(Arc::new(vec![9]))).is_err());
+    }
+
+    fn mesh(ints: usize) -> ShapeEntity {
+        use farm_common::scene::{Param, ParamValue};
+        let mut e = Entity::named("trianglemesh");
+        let value = ParamValue::Int((0..ints as i32).collect());
+        e.params.add(Param { name: "indices".into(), value, loc: Default::default() });
+        ShapeEntity {
+            entity: e,
+            world_from_object: Default::default(),
+            reverse_orientation: false,
+            material: None,
+            area_light: None,
+            media: Default::default(),
+        }
+    }
+
+    /// A large mesh travels as a blob of its own, so two scenes (two
+    /// frames of a shot) that share it send it once; small shapes stay in
+    /// the manifest; the scene decodes as it was.
+    #[test]
+    fn large_shapes_travel_apart_and_frames_share_them() {
+        use farm_common::scene::ObjectEntity;
+        let scene = |camera_x: f32| {
+            let mut d = SceneDescription { name: "f".into(), ..Default::default() };
+            d.shapes.push(mesh(10));
+            d.shapes.push(mesh(100_000));
+            d.objects.push(ObjectEntity {
+                name: "o".into(),
+                shapes: vec![mesh(12), mesh(50_000)],
+                loc: Default::default(),
+            });
+            d.film.name = format!("{camera_x}");
+            d
+        };
+        let (mut a, mut b) = (scene(1.0), scene(2.0));
+        let (ma, blobs_a) = encode_scene(&mut a).unwrap();
+        let (mb, blobs_b) = encode_scene(&mut b).unwrap();
+        assert_eq!(a, scene(1.0), "the parameters are put back");
+        assert_eq!(blobs_a.len(), 2, "the two large meshes");
+        assert_eq!(blobs_a, blobs_b, "the frames' meshes are the same blobs");
+        assert_ne!(ma.hash, mb.hash);
+        assert!(ma.data.len() < 4096, "the manifest is {} bytes", ma.data.len());
+        let find = |h: &Hash| blobs_a.iter().find(|x| &x.hash == h).map(|x| x.data.clone());
+        assert_eq!(decode_scene(&ma.data, find).unwrap(), scene(1.0));
+        assert_eq!(decode_scene(&mb.data, find).unwrap(), scene(2.0));
+        // A manifest naming a shape the scene lacks is refused.
+        let (desc, mut refs) = decode_manifest(&ma.data).unwrap();
+        refs[0].0 = format!("{SHAPE_KEY}7");
+        let bad = postcard::to_stdvec(&(&desc, &refs)).unwrap();
+        let e = decode_scene(&bad, find).unwrap_err().to_string();
+        assert!(e.contains("no shape"), "{e}");
     }
 }

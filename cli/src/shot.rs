@@ -1,0 +1,190 @@
+//! A shot on a farm (`farm submit FILES... --coordinator`): its frames are
+//! submitted as jobs a few ahead of the ones rendering, so the farm's
+//! queue always holds the next frame's tiles and no worker idles between
+//! frames, while the coordinator holds only a few frames' films. Each
+//! asset is uploaded once however many frames name it (the blobs are
+//! content-addressed), and each frame is written as soon as its image
+//! arrives. A frame that fails fails alone.
+
+use crate::client::{connect, follow, upload, JobImage, Remote, RemoteOptions, RemoteProgress};
+use crate::embedded::RenderSummary;
+use crate::error::Error;
+use crate::frames::{FrameOutput, FrameScene};
+use farm_common::film::FilmGeometry;
+use farm_common::scene::Warning;
+use farm_proto::connect::Client;
+use farm_proto::convert::encode_scene;
+use farm_proto::v1;
+use farm_proto::PROTOCOL_VERSION;
+use farm_render::features::Features;
+use std::collections::HashSet;
+use std::path::{Path, PathBuf};
+use tokio::sync::mpsc;
+use tokio::task::JoinSet;
+
+/// At most this many of a shot's frames are submitted and unfinished at
+/// once (the coordinator allows a client 16 watches).
+pub const MAX_IN_FLIGHT: usize = 8;
+
+/// What became of one frame.
+pub enum FrameEnd {
+    /// Its image, to be written.
+    Done(Box<RenderSummary>, FrameOutput),
+    /// It failed, alone.
+    Failed(FrameOutput, Error),
+}
+
+/// What the shot cost.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct ShotTotals {
+    /// Frames submitted.
+    pub frames: usize,
+    /// Bytes uploaded, each blob once.
+    pub uploaded_bytes: u64,
+    /// Blobs that more than one frame named, uploaded once.
+    pub blobs_reused: usize,
+}
+
+/// A frame on the farm: what is kept of its scene while it renders.
+struct Pending {
+    out: FrameOutput,
+    job: u64,
+    film_filename: String,
+    features: Features,
+    scene_name: String,
+    warnings: Vec<Warning>,
+    startup_seconds: f64,
+}
+
+/// Submits each frame `frames` yields, at most `in_flight` unfinished at
+/// once, and hands each frame's end to `on_end` as it comes, with
+/// `progress` told of the frames' tiles as they merge. A scene that does
+/// not parse ends the shot (the frames already on the farm are still
+/// followed to their end); anything else fails only its frame.
+pub async fn submit_shot(
+    remote: &Remote,
+    mut frames: impl Iterator<Item = Result<FrameScene, Error>>,
+    opts: &RemoteOptions,
+    in_flight: usize,
+    mut progress: impl FnMut(u32, &RemoteProgress),
+    mut on_end: impl FnMut(FrameEnd),
+) -> Result<ShotTotals, Error> {
+    let mut client = connect(remote).await?;
+    let mut totals = ShotTotals::default();
+    let mut sent: HashSet<[u8; 32]> = HashSet::new();
+    let mut running: JoinSet<(Pending, Result<JobImage, Error>)> = JoinSet::new();
+    let (tx, mut rx) = mpsc::unbounded_channel::<(u32, RemoteProgress)>();
+    let mut stopped: Option<Error> = None;
+    loop {
+        while stopped.is_none() && running.len() < in_flight.clamp(1, MAX_IN_FLIGHT) {
+            let frame = match frames.next() {
+                None => break,
+                Some(Err(e)) => {
+                    stopped = Some(e);
+                    break;
+                }
+                Some(Ok(f)) => f,
+            };
+            totals.frames += 1;
+            let out = frame.out.clone();
+            match submit_frame(&mut client, frame, opts, &mut sent, &mut totals).await {
+                Ok(p) => {
+                    let (remote, tx) = (remote.clone(), tx.clone());
+                    let reconnect_for = opts.reconnect_for;
+                    running.spawn(async move {
+                        let n = p.out.frame;
+                        let image = follow(&remote, p.job, None, reconnect_for, |r| {
+                            let _ = tx.send((n, *r));
+                        })
+                        .await;
+                        (p, image)
+                    });
+                }
+                Err(e) => on_end(FrameEnd::Failed(out, e)),
+            }
+        }
+        if running.is_empty() {
+            break;
+        }
+        tokio::select! {
+            Some((n, p)) = rx.recv() => progress(n, &p),
+            Some(joined) = running.join_next() => {
+                let (p, image) = joined.map_err(|e| Error::Protocol(format!("a frame's task: {e}")))?;
+                on_end(match image {
+                    Ok(image) => FrameEnd::Done(Box::new(summary(&p, image)), p.out),
+                    Err(e) => FrameEnd::Failed(p.out, e),
+                });
+            }
+        }
+    }
+    match stopped {
+        Some(e) => Err(e),
+        None => Ok(totals),
+    }
+}
+
+/// Uploads what of one frame the coordinator has not been sent in this
+/// shot, and submits it.
+async fn submit_frame(
+    client: &mut Client,
+    frame: FrameScene,
+    opts: &RemoteOptions,
+    sent: &mut HashSet<[u8; 32]>,
+    totals: &mut ShotTotals,
+) -> Result<Pending, Error> {
+    let FrameScene { out, file, mut desc, mut warnings, start } = frame;
+    opts.overrides.apply(&mut desc, &mut warnings);
+    crate::client::check_outside(&desc, &file, opts.allow_assets_outside)?;
+    let (manifest, assets) = encode_scene(&mut desc).map_err(|e| Error::Protocol(e.to_string()))?;
+    for blob in assets.iter().chain(std::iter::once(&manifest)) {
+        if !sent.insert(blob.hash) {
+            totals.blobs_reused += 1;
+            continue;
+        }
+        upload(client, blob).await?;
+        totals.uploaded_bytes += blob.data.len() as u64;
+    }
+    let job = client
+        .submit_job(v1::SubmitJobRequest {
+            protocol_version: PROTOCOL_VERSION,
+            scene_hash: manifest.hash.to_vec(),
+            spp: opts.spp.unwrap_or(0),
+            priority: opts.priority,
+            name: file_name(&file),
+            detach: false,
+        })
+        .await?
+        .into_inner()
+        .job_id;
+    let (film, _) = FilmGeometry::from_description(&desc);
+    Ok(Pending {
+        out,
+        job,
+        film_filename: film.filename,
+        features: Features::of(&desc),
+        scene_name: desc.name,
+        warnings,
+        startup_seconds: start.elapsed().as_secs_f64(),
+    })
+}
+
+/// A file's name, for a job's.
+pub fn file_name(file: &Path) -> String {
+    file.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default()
+}
+
+/// A frame's image and what is known of its scene, as a render's summary.
+fn summary(p: &Pending, image: JobImage) -> RenderSummary {
+    RenderSummary {
+        image: image.image,
+        error: image.error,
+        output: p.out.image.clone().unwrap_or_else(|| PathBuf::from(&p.film_filename)),
+        stats: image.stats,
+        spp: image.spp,
+        startup_seconds: p.startup_seconds,
+        render_seconds: image.render_seconds,
+        features: p.features.clone(),
+        scene_name: p.scene_name.clone(),
+        warnings: p.warnings.clone(),
+    }
+}

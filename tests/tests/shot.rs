@@ -1,0 +1,92 @@
+//! A shot: the project's 24-frame scene (`scenes/shot`, the camera
+//! circling one PLY mesh that every frame Includes) renders embedded and on
+//! a farm of two workers with identical frames, and the farm is sent the
+//! mesh once: the bytes uploads bring the coordinator are counted on its
+//! `/metrics` and must be the mesh once plus each frame's own manifest.
+
+use farm_cli::client::RemoteOptions;
+use farm_cli::embedded::{render_parsed, SubmitOptions};
+use farm_cli::frames::{expand_inputs, frame_scenes, Outputs};
+use farm_cli::shot::{submit_shot, FrameEnd};
+use farm_common::image::RgbImage;
+use farm_proto::convert::encode_scene;
+use farm_scene::SceneStream;
+use farm_tests::cluster::TestCluster;
+use farm_tests::http::{self, parse_prometheus, value};
+use std::collections::BTreeMap;
+use std::path::Path;
+use std::time::{Duration, Instant};
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 4)]
+async fn a_shot_renders_the_same_frames_embedded_and_on_two_workers_sending_its_mesh_once() {
+    let folder = Path::new(env!("CARGO_MANIFEST_DIR")).join("../scenes/shot");
+    let inputs = expand_inputs(&[folder]).unwrap();
+    assert_eq!(inputs.len(), 24, "{inputs:?}");
+
+    // Embedded, a frame at a time; and what a farm must be sent: each
+    // blob once (the mesh's parameters are a blob of their own).
+    let opts = SubmitOptions { spp: Some(2), threads: 2, ..Default::default() };
+    let mut here = Vec::new();
+    let mut blobs = BTreeMap::new();
+    for scene in SceneStream::new(&inputs) {
+        let mut s = scene.unwrap();
+        let (manifest, assets) = encode_scene(&mut s.desc).unwrap();
+        for b in assets.iter().chain([&manifest]) {
+            blobs.insert(b.hash, b.data.len() as u64);
+        }
+        let summary = render_parsed(s.desc, s.warnings, Instant::now(), &opts, |_| {});
+        here.push(summary.unwrap().image);
+    }
+    assert_eq!(here.len(), 24);
+    assert_eq!(blobs.len(), 25, "one mesh blob and 24 manifests");
+    let mesh = *blobs.values().max().unwrap();
+    assert!(mesh > 16 << 10, "the mesh's blob is {mesh} bytes");
+
+    let cluster = TestCluster::start(2, Duration::from_millis(500)).await;
+    let mut outputs = Outputs::new(None, None, 1, inputs.len()).unwrap();
+    let frames = frame_scenes(&inputs, &mut outputs, SceneStream::new(&inputs), Instant::now());
+    let mut farm: BTreeMap<u32, RgbImage> = BTreeMap::new();
+    let remote_opts = RemoteOptions { spp: Some(2), ..Default::default() };
+    let totals = submit_shot(
+        &cluster.remote(),
+        frames,
+        &remote_opts,
+        3,
+        |_, _| {},
+        |end| match end {
+            FrameEnd::Done(summary, out) => {
+                let name = summary.output.to_string_lossy().into_owned();
+                assert_eq!(
+                    name,
+                    format!("frame-{:04}.exr", out.frame),
+                    "each scene's Film filename"
+                );
+                farm.insert(out.frame, summary.image);
+            }
+            FrameEnd::Failed(out, e) => panic!("frame {} failed: {e}", out.frame),
+        },
+    )
+    .await
+    .expect("the shot");
+    assert_eq!(totals.frames, 24);
+    assert_eq!(farm.keys().copied().collect::<Vec<_>>(), (1..=24).collect::<Vec<_>>());
+    for (i, (frame, image)) in farm.iter().enumerate() {
+        let (a, b) = (farm_tests::bits(image), farm_tests::bits(&here[i]));
+        let differ = a.iter().zip(&b).filter(|(x, y)| x != y).count();
+        assert!(a.len() == b.len() && differ == 0, "frame {frame}: {differ} floats differ");
+    }
+
+    // Each blob was sent once: the mesh once, not 24 times.
+    let sent: u64 = blobs.values().sum();
+    assert_eq!(totals.uploaded_bytes, sent);
+    assert_eq!(totals.blobs_reused, 23, "the mesh, named by 23 frames after the first");
+    let address = cluster.url.trim_start_matches("http://").to_string();
+    let answer =
+        tokio::task::spawn_blocking(move || http::get(&address, "/metrics")).await.unwrap();
+    let text = String::from_utf8(answer.body).unwrap();
+    let m = parse_prometheus(&text).unwrap_or_else(|e| panic!("{e}\n{text}"));
+    let received = value(&m, "farm_blob_upload_bytes_total", &[]).expect("the upload counter");
+    // Sent with each frame, the mesh would have added 23 × its size.
+    assert_eq!(received, sent as f64, "bytes the coordinator received ({mesh}-byte mesh)");
+    cluster.stop().await;
+}
