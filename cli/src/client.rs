@@ -147,6 +147,7 @@ pub async fn start_parsed(
             priority: opts.priority,
             name: crate::shot::file_name(scene),
             detach: opts.detach,
+            shot: None,
         })
         .await?
         .into_inner()

@@ -174,6 +174,7 @@ where
         owner: Default::default(),
         detach: false,
         blobs: Vec::new(),
+        shot: None,
     };
     let (results, inbox) = mpsc::channel();
     let mut out = LocalOutbox {

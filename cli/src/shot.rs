@@ -34,9 +34,21 @@ pub enum FrameEnd {
     Failed(FrameOutput, Error),
 }
 
+/// Which shot the frames belong to.
+#[derive(Clone, Copy, Debug)]
+pub struct ShotPlace {
+    /// An existing shot to add them to (`--retry-failed`); `None` starts
+    /// a new one with the first frame.
+    pub shot: Option<u64>,
+    /// How many frames the shot has (the files given).
+    pub frames: u32,
+}
+
 /// What the shot cost.
 #[derive(Clone, Copy, Debug, Default)]
 pub struct ShotTotals {
+    /// The shot's id (0 if no frame was submitted).
+    pub shot: u64,
     /// Frames submitted.
     pub frames: usize,
     /// Bytes uploaded, each blob once.
@@ -65,12 +77,14 @@ pub async fn submit_shot(
     remote: &Remote,
     mut frames: impl Iterator<Item = Result<FrameScene, Error>>,
     opts: &RemoteOptions,
+    place: ShotPlace,
     in_flight: usize,
     mut progress: impl FnMut(u32, &RemoteProgress),
     mut on_end: impl FnMut(FrameEnd),
 ) -> Result<ShotTotals, Error> {
     let mut client = connect(remote).await?;
-    let mut totals = ShotTotals::default();
+    let mut totals = ShotTotals { shot: place.shot.unwrap_or(0), ..Default::default() };
+    let frames_declared = place.frames.max(1);
     let mut sent: HashSet<[u8; 32]> = HashSet::new();
     let mut running: JoinSet<(Pending, Result<JobImage, Error>)> = JoinSet::new();
     let (tx, mut rx) = mpsc::unbounded_channel::<(u32, RemoteProgress)>();
@@ -87,8 +101,13 @@ pub async fn submit_shot(
             };
             totals.frames += 1;
             let out = frame.out.clone();
-            match submit_frame(&mut client, frame, opts, &mut sent, &mut totals).await {
+            let shot =
+                v1::ShotFrame { shot: totals.shot, frame: out.frame, frames: frames_declared };
+            match submit_frame(&mut client, frame, opts, shot, &mut sent, &mut totals).await {
                 Ok(p) => {
+                    if totals.shot == 0 {
+                        totals.shot = p.job;
+                    }
                     let (remote, tx) = (remote.clone(), tx.clone());
                     let reconnect_for = opts.reconnect_for;
                     running.spawn(async move {
@@ -129,6 +148,7 @@ async fn submit_frame(
     client: &mut Client,
     frame: FrameScene,
     opts: &RemoteOptions,
+    shot: v1::ShotFrame,
     sent: &mut HashSet<[u8; 32]>,
     totals: &mut ShotTotals,
 ) -> Result<Pending, Error> {
@@ -152,6 +172,7 @@ async fn submit_frame(
             priority: opts.priority,
             name: file_name(&file),
             detach: false,
+            shot: Some(shot),
         })
         .await?
         .into_inner()
@@ -187,4 +208,68 @@ fn summary(p: &Pending, image: JobImage) -> RenderSummary {
         scene_name: p.scene_name.clone(),
         warnings: p.warnings.clone(),
     }
+}
+
+/// A shot as a status listing shows it: each frame counted once, by its
+/// latest job (a frame rendered again after a failure counts as the new
+/// job stands).
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct ShotView {
+    /// The shot's id (its first frame's job).
+    pub shot: u64,
+    /// Its first frame's job's name.
+    pub name: String,
+    /// Who submitted it.
+    pub owner: String,
+    /// How many frames its client was given.
+    pub frames: u32,
+    /// Frames whose latest job is done.
+    pub done: Vec<u32>,
+    /// Frames whose latest job is queued or running.
+    pub rendering: Vec<u32>,
+    /// Frames whose latest job failed or was cancelled.
+    pub failed: Vec<u32>,
+}
+
+/// The shots among `jobs`, by id.
+pub fn shots(jobs: &[v1::JobStatus]) -> Vec<ShotView> {
+    use std::collections::BTreeMap;
+    let mut latest: BTreeMap<u64, BTreeMap<u32, &v1::JobStatus>> = BTreeMap::new();
+    for j in jobs {
+        let Some(s) = &j.shot else { continue };
+        let frames = latest.entry(s.shot).or_default();
+        let slot = frames.entry(s.frame).or_insert(j);
+        if j.job_id > slot.job_id {
+            *slot = j;
+        }
+    }
+    latest
+        .into_iter()
+        .map(|(shot, frames)| {
+            let mut v = ShotView { shot, ..Default::default() };
+            for (frame, j) in frames {
+                if j.job_id == shot || v.name.is_empty() {
+                    v.name.clone_from(&j.name);
+                    v.owner.clone_from(&j.owner);
+                }
+                v.frames = v.frames.max(j.shot.as_ref().map_or(0, |s| s.frames));
+                match j.state.as_str() {
+                    "done" => v.done.push(frame),
+                    "queued" | "running" => v.rendering.push(frame),
+                    _ => v.failed.push(frame),
+                }
+            }
+            v
+        })
+        .collect()
+}
+
+/// Shot `shot` as the coordinator lists it (for `--retry-failed`).
+pub async fn existing_shot(remote: &Remote, shot: u64) -> Result<ShotView, Error> {
+    let s = crate::client::status(remote).await?;
+    shots(&s.jobs).into_iter().find(|v| v.shot == shot).ok_or_else(|| {
+        Error::Usage(format!(
+            "the coordinator knows no shot {shot} of yours (a shot is forgotten with its jobs, after the coordinator's --keep-finished)"
+        ))
+    })
 }

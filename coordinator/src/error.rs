@@ -58,6 +58,9 @@ pub enum Error {
     /// A job whose film has no pixels.
     #[error("the film has no pixels")]
     EmptyFilm,
+    /// A frame names a shot that is not the client's, or is not a shot.
+    #[error("{0}")]
+    BadShot(String),
     /// A job id the coordinator does not know.
     #[error("no job {0}")]
     NoJob(u64),
@@ -115,6 +118,7 @@ impl From<Error> for Status {
             | Error::HashMismatch
             | Error::BadManifest(_)
             | Error::EmptyFilm
+            | Error::BadShot(_)
             | Error::Film(_)
             | Error::UnknownTile(..)
             | Error::WrongDimensions(_)

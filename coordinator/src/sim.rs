@@ -230,6 +230,7 @@ impl Sim {
             owner: Owner::default(),
             detach: true,
             blobs: Vec::new(),
+            shot: None,
         };
         self.call(|s, out, _| {
             s.submit(spec, out);

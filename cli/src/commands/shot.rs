@@ -8,8 +8,9 @@ use super::submit::SubmitArgs;
 use super::submit::{fail, finish, remote_options, run_embedded_to, show_progress, Parsed};
 use crate::error::Error;
 use crate::frames::{frame_scenes, FrameOutput, FrameScene, Outputs};
-use crate::shot::FrameEnd;
+use crate::shot::{FrameEnd, ShotPlace};
 use farm_scene::{SceneError, StreamedScene};
+use std::collections::BTreeSet;
 use std::path::PathBuf;
 use std::process::ExitCode;
 use std::time::Instant;
@@ -39,8 +40,9 @@ pub fn run(
     let frames = frame_scenes(inputs, &mut outputs, std::iter::once(Ok(first)).chain(rest), start);
     let mut tally = Tally::default();
     if args.coordinator.is_some() {
+        let frame_count = inputs.len() as u32;
         crate::runtime::block_on(async move {
-            let stopped = on_farm(args, frames, &mut tally).await;
+            let stopped = on_farm(args, frames, frame_count, &mut tally).await;
             tally.report(args, stopped)
         })
     } else {
@@ -74,6 +76,7 @@ fn embedded(
 async fn on_farm(
     args: &SubmitArgs,
     frames: impl Iterator<Item = Result<FrameScene, Error>>,
+    frame_count: u32,
     tally: &mut Tally,
 ) -> Option<Error> {
     let token = match args.token.token() {
@@ -87,11 +90,31 @@ async fn on_farm(
         );
     }
     let opts = remote_options(args);
+    // Retrying: the frames the shot has an image of, or is rendering.
+    let have = match args.retry_failed {
+        None => BTreeSet::new(),
+        Some(shot) => match crate::shot::existing_shot(&remote, shot).await {
+            Err(e) => return Some(e),
+            Ok(v) => {
+                if !args.quiet {
+                    eprintln!(
+                        "shot {shot}: {} frames done, {} rendering; rendering the others again",
+                        v.done.len(),
+                        v.rendering.len()
+                    );
+                }
+                v.done.into_iter().chain(v.rendering).collect()
+            }
+        },
+    };
+    let frames = frames.filter(|f| f.as_ref().map_or(true, |f| !have.contains(&f.out.frame)));
+    let place = ShotPlace { shot: args.retry_failed, frames: frame_count };
     let bar = crate::progress::progress_bar(args.quiet);
     let result = crate::shot::submit_shot(
         &remote,
         frames,
         &opts,
+        place,
         args.frames_in_flight as usize,
         |frame, p| show_progress(&bar, u64::from(frame), p),
         |end| {
@@ -112,6 +135,7 @@ async fn on_farm(
     match result {
         Ok(totals) => {
             tally.uploaded = Some((totals.uploaded_bytes, totals.blobs_reused));
+            tally.shot = Some(totals.shot).filter(|&s| s != 0);
             None
         }
         Err(e) => Some(e),
@@ -125,6 +149,8 @@ struct Tally {
     failed: Vec<u32>,
     /// Bytes uploaded, and blobs sent once for several frames (on a farm).
     uploaded: Option<(u64, usize)>,
+    /// The shot's id on the farm.
+    shot: Option<u64>,
 }
 
 impl Tally {
@@ -148,8 +174,9 @@ impl Tally {
                 ),
                 None => String::new(),
             };
+            let id = self.shot.map(|s| format!(" {s}")).unwrap_or_default();
             say!(
-                "shot: {frames} frames, {} written, {} failed{sent}",
+                "shot{id}: {frames} frames, {} written, {} failed{sent}",
                 self.written,
                 self.failed.len()
             );
@@ -163,6 +190,11 @@ impl Tally {
         let list: Vec<String> = self.failed.iter().map(u32::to_string).collect();
         let noun = if list.len() == 1 { "frame" } else { "frames" };
         eprintln!("error: {noun} {} failed", list.join(", "));
+        if let Some(shot) = self.shot {
+            eprintln!(
+                "`farm submit --retry-failed {shot}` with the same files and -o renders them again"
+            );
+        }
         ExitCode::FAILURE
     }
 }

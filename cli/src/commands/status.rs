@@ -37,6 +37,28 @@ pub fn tables(s: &GetStatusResponse) -> String {
             j.job_id, j.name, j.owner, j.state, tiles, j.priority, j.attempts, j.retries
         );
     }
+    let shots = crate::shot::shots(&s.jobs);
+    if !shots.is_empty() {
+        let _ = writeln!(out);
+        let _ = writeln!(
+            out,
+            "{:>6}  {:<28} {:<16} {:>6} {:>6} {:>9} {:>6}",
+            "shot", "first frame", "owner", "frames", "done", "rendering", "failed"
+        );
+        for v in &shots {
+            let _ = writeln!(
+                out,
+                "{:>6}  {:<28} {:<16} {:>6} {:>6} {:>9} {:>6}",
+                v.shot,
+                v.name,
+                v.owner,
+                v.frames,
+                v.done.len(),
+                v.rendering.len(),
+                v.failed.len()
+            );
+        }
+    }
     let _ = writeln!(out);
     let _ = writeln!(
         out,
@@ -64,6 +86,9 @@ pub fn json(s: &GetStatusResponse) -> String {
                 "tiles_done": j.tiles_done, "tiles_total": j.tiles_total,
                 "priority": j.priority, "attempts": j.attempts, "retries": j.retries,
                 "speculated": j.speculated,
+                "shot": j.shot.as_ref().map(|f| serde_json::json!({
+                    "shot": f.shot, "frame": f.frame, "frames": f.frames,
+                })),
             })
         })
         .collect();
@@ -77,7 +102,16 @@ pub fn json(s: &GetStatusResponse) -> String {
             })
         })
         .collect();
-    serde_json::json!({ "jobs": jobs, "workers": workers }).to_string()
+    let shots: Vec<serde_json::Value> = crate::shot::shots(&s.jobs)
+        .iter()
+        .map(|v| {
+            serde_json::json!({
+                "id": v.shot, "name": v.name, "owner": v.owner, "frames": v.frames,
+                "done": v.done, "rendering": v.rendering, "failed": v.failed,
+            })
+        })
+        .collect();
+    serde_json::json!({ "jobs": jobs, "shots": shots, "workers": workers }).to_string()
 }
 
 /// Prints the status once, or every `--watch` seconds until interrupted.

@@ -29,6 +29,12 @@ pub struct SubmitArgs {
     #[arg(long, default_value_t = 3, value_name = "N",
           value_parser = clap::value_parser!(u32).range(1..=crate::shot::MAX_IN_FLIGHT as i64))]
     pub frames_in_flight: u32,
+    /// Render again only the frames of this shot (its id, as `farm status`
+    /// lists it) that have no image and are not rendering: those that
+    /// failed or were cancelled, or never reached the farm. Give the same
+    /// files and -o as the first time.
+    #[arg(long, value_name = "SHOT", requires = "coordinator")]
+    pub retry_failed: Option<u64>,
     /// Samples per pixel, overriding the scene's sampler.
     #[arg(long, value_parser = clap::value_parser!(u32).range(1..))]
     pub spp: Option<u32>,
@@ -121,7 +127,7 @@ pub fn run(mut args: SubmitArgs) -> ExitCode {
         Some(Err(e)) => return fail(&e.into()),
         None => return fail(&crate::error::Error::Usage("no scene to render".into())),
     };
-    if inputs.len() > 1 || stream.peek().is_some() {
+    if inputs.len() > 1 || args.retry_failed.is_some() || stream.peek().is_some() {
         return super::shot::run(&args, &inputs, first, stream, start);
     }
     // One scene: an output name with a frame number is frame --first-frame.

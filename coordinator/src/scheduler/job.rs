@@ -63,6 +63,21 @@ pub struct JobSpec {
     pub detach: bool,
     /// The blobs it needs: its manifest and assets (kept while it is).
     pub blobs: Vec<[u8; 32]>,
+    /// The shot it is a frame of (journalled in a table of its own, so a
+    /// journal written before shots existed still decodes).
+    #[serde(skip)]
+    pub shot: Option<ShotFrame>,
+}
+
+/// A job's place in a shot (`farm submit` of several scenes).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct ShotFrame {
+    /// The shot: the id of its first frame's job.
+    pub shot: JobId,
+    /// The frame's number.
+    pub frame: u32,
+    /// How many frames its client was given.
+    pub frames: u32,
 }
 
 /// Who submitted a job: a token's id and name.
@@ -187,4 +202,6 @@ pub struct JobRow {
     pub retries: u32,
     /// Speculative second hand-outs.
     pub speculated: u32,
+    /// The shot it is a frame of.
+    pub shot: Option<ShotFrame>,
 }

@@ -16,9 +16,13 @@ const PROGRESS_EVERY: Duration = Duration::from_millis(100);
 
 impl Scheduler {
     /// Queues a job and hands out tiles.
-    pub fn submit(&mut self, spec: JobSpec, out: &mut impl Outbox) -> JobId {
+    pub fn submit(&mut self, mut spec: JobSpec, out: &mut impl Outbox) -> JobId {
         let id = JobId(self.next_job);
         self.next_job += 1;
+        // A shot's first frame names the shot after itself.
+        if let Some(s) = spec.shot.as_mut().filter(|s| s.shot.0 == 0) {
+            s.shot = id;
+        }
         let total = spec.geometry.tile_count();
         info!(job = id.0, name = %spec.name, tiles = total, priority = spec.priority, "job queued");
         let mut job = Job::new(id, spec, JobState::Queued, self.now());
@@ -31,6 +35,20 @@ impl Scheduler {
         }
         self.fill(out);
         id
+    }
+
+    /// Refuses a frame that names a shot (other than a new one) that is
+    /// not a shot of the same client's. A shot is known while its first
+    /// frame's job is (until `--keep-finished` forgets it).
+    pub fn check_shot(&self, spec: &JobSpec) -> Result<(), String> {
+        let Some(s) = spec.shot.filter(|s| s.shot.0 != 0) else { return Ok(()) };
+        let first = self.jobs.get(&s.shot).filter(|j| {
+            j.spec.owner.id == spec.owner.id && j.spec.shot.is_some_and(|f| f.shot == s.shot)
+        });
+        match first {
+            Some(_) => Ok(()),
+            None => Err(format!("there is no shot {} of yours on this coordinator", s.shot.0)),
+        }
     }
 
     /// Whether `worker` holds hand-out `key`: only the holder's answer to a

@@ -17,7 +17,7 @@ mod tests;
 mod views;
 mod workers;
 
-pub use job::{JobRow, JobSpec, JobState, Owner, Snapshot};
+pub use job::{JobRow, JobSpec, JobState, Owner, ShotFrame, Snapshot};
 pub use outbox::{Assignment, FinishedJob, JobUpdate, Outbox, Record};
 pub use views::{Gauges, JobView, WorkerView};
 pub use workers::WorkerRow;
@@ -114,6 +114,7 @@ impl Scheduler {
                 attempts: j.attempts,
                 retries: j.retries,
                 speculated: j.speculated,
+                shot: self.jobs.get(&JobId(j.id)).and_then(|job| job.spec.shot),
             })
             .collect();
         let workers = workers

@@ -75,6 +75,7 @@ fn spec(priority: i32) -> JobSpec {
         owner: Owner::default(),
         detach: false,
         blobs: Vec::new(),
+        shot: None,
     }
 }
 
@@ -474,4 +475,30 @@ fn a_worker_failing_a_job_too_often_shows_as_blocklisted() {
     let (_, workers) = s.views(t0, |_| None);
     assert_eq!(workers[0].failures, 3);
     assert_eq!(workers[0].blocklisted, vec![job.0]);
+}
+
+/// A shot's first frame names the shot after its job; later frames may
+/// join it only if it is a shot and its owner's.
+#[test]
+fn frames_join_only_their_owners_shots() {
+    use super::ShotFrame;
+    let mut s = Scheduler::new(SchedulerConfig::default());
+    let mut out = Recorder::default();
+    let frame = |shot: u64, frame: u32, owner: &str| {
+        let shot = Some(ShotFrame { shot: JobId(shot), frame, frames: 3 });
+        let owner = Owner { id: owner.into(), name: owner.into() };
+        JobSpec { shot, owner, ..spec(0) }
+    };
+    let plain = s.submit(JobSpec { owner: frame(0, 1, "ann").owner, ..spec(0) }, &mut out);
+    let first = s.submit(frame(0, 1, "ann"), &mut out);
+    let (rows, _) = s.status();
+    let row = rows.iter().find(|r| r.id == first).unwrap();
+    assert_eq!(row.shot, Some(ShotFrame { shot: first, frame: 1, frames: 3 }));
+    assert!(s.check_shot(&frame(first.0, 2, "ann")).is_ok());
+    assert!(s.check_shot(&frame(0, 1, "bob")).is_ok(), "anyone may start a shot");
+    let refused = [frame(first.0, 2, "bob"), frame(plain.0, 2, "ann"), frame(99, 2, "ann")];
+    for f in refused {
+        let e = s.check_shot(&f).unwrap_err();
+        assert!(e.contains("no shot"), "{e}");
+    }
 }

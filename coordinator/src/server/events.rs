@@ -52,8 +52,8 @@ pub enum Event {
     Submit {
         /// The job.
         spec: JobSpec,
-        /// Where to send its id.
-        reply: oneshot::Sender<JobId>,
+        /// Where to send its id, or why it was refused.
+        reply: oneshot::Sender<Result<JobId, crate::error::Error>>,
     },
     /// A client watches a job.
     Watch {
@@ -196,7 +196,10 @@ pub async fn run(mut rx: mpsc::UnboundedReceiver<Event>, config: ServerConfig, s
                 sched.worker_left(id, &mut out);
             }
             Event::Submit { spec, reply } => {
-                let id = sched.submit(spec, &mut out);
+                let id = match sched.check_shot(&spec) {
+                    Ok(()) => Ok(sched.submit(spec, &mut out)),
+                    Err(why) => Err(crate::error::Error::BadShot(why)),
+                };
                 let _ = reply.send(id);
             }
             Event::Watch { job, tx, live, reply } => match sched.snapshot(job) {

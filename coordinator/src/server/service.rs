@@ -3,7 +3,7 @@
 
 use super::events::{Event, FromWorker};
 use crate::error::Error;
-use crate::scheduler::{JobSpec, Owner};
+use crate::scheduler::{JobSpec, Owner, ShotFrame};
 use crate::security::{require, Action, Principal};
 use crate::state::BlobStore;
 use farm_common::film::Limits;
@@ -207,6 +207,20 @@ fn check_version(v: u32) -> Result<(), Status> {
 }
 
 /// The event loop's answer; none means it has stopped.
+/// The most frames a shot may declare.
+pub const MAX_FRAMES: u32 = 1_000_000;
+
+/// A submitted job's place in a shot, checked for sense (whether the shot
+/// is the client's is the event loop's to check).
+fn shot_frame(s: Option<&v1::ShotFrame>) -> Result<Option<ShotFrame>, Status> {
+    let Some(s) = s else { return Ok(None) };
+    if s.frames == 0 || s.frames > MAX_FRAMES {
+        let why = format!("a shot has 1 to {MAX_FRAMES} frames, not {}", s.frames);
+        return Err(Error::BadShot(why).into());
+    }
+    Ok(Some(ShotFrame { shot: JobId(s.shot), frame: s.frame, frames: s.frames }))
+}
+
 async fn answer<T>(rx: oneshot::Receiver<T>) -> Result<T, Status> {
     rx.await.map_err(|_| Error::ShuttingDown.into())
 }
@@ -393,10 +407,11 @@ impl Coordinator for CoordinatorService {
             owner: Owner { id: by.id, name: by.name },
             detach: r.detach,
             blobs,
+            shot: shot_frame(r.shot.as_ref())?,
         };
         let (reply, rx) = oneshot::channel();
         self.send(Event::Submit { spec, reply })?;
-        let id = answer(rx).await?;
+        let id = answer(rx).await??;
         Ok(Response::new(v1::SubmitJobResponse { job_id: id.0 }))
     }
 
@@ -468,6 +483,11 @@ impl Coordinator for CoordinatorService {
                     attempts: j.attempts,
                     retries: j.retries,
                     speculated: j.speculated,
+                    shot: j.shot.map(|s| v1::ShotFrame {
+                        shot: s.shot.0,
+                        frame: s.frame,
+                        frames: s.frames,
+                    }),
                 })
                 .collect(),
             workers: workers

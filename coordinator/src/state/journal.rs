@@ -9,9 +9,10 @@
 //! channel, so they are answered in order.
 
 use super::StateError;
-use crate::scheduler::{JobSpec, JobState, JobUpdate, Record};
+use crate::scheduler::{JobSpec, JobState, JobUpdate, Record, ShotFrame};
 use crate::server::events::job_events;
 use farm_common::film::FilmTile;
+use farm_common::ids::JobId;
 use farm_common::stats::RayStats;
 use farm_proto::convert::Hash;
 use prost::Message;
@@ -50,6 +51,9 @@ CREATE TABLE IF NOT EXISTS job_blobs (
     PRIMARY KEY (job, hash)
 ) WITHOUT ROWID;
 CREATE INDEX IF NOT EXISTS job_blobs_hash ON job_blobs (hash);
+CREATE TABLE IF NOT EXISTS frames (
+    job INTEGER PRIMARY KEY, shot INTEGER NOT NULL, frame INTEGER NOT NULL, frames INTEGER NOT NULL
+);
 CREATE TABLE IF NOT EXISTS blobs (
     hash BLOB PRIMARY KEY, size INTEGER NOT NULL, owner TEXT NOT NULL, stored_at INTEGER NOT NULL
 ) WITHOUT ROWID;
@@ -323,6 +327,12 @@ fn apply(
             for h in blobs {
                 st.execute(params![id as i64, h.as_slice()])?;
             }
+            if let Some(f) = spec.shot {
+                tx.execute(
+                    "INSERT OR REPLACE INTO frames (job, shot, frame, frames) VALUES (?1, ?2, ?3, ?4)",
+                    params![id as i64, f.shot.0 as i64, f.frame, f.frames],
+                )?;
+            }
         }
         Command::HandedOut { job, tile, n } => {
             tx.prepare_cached(
@@ -357,7 +367,7 @@ fn apply(
         Command::Purge { jobs, unreferenced_before, reply } => {
             for job in jobs {
                 let job = job as i64;
-                for table in ["tiles", "attempts", "images", "job_blobs"] {
+                for table in ["tiles", "attempts", "images", "job_blobs", "frames"] {
                     tx.execute(&format!("DELETE FROM {table} WHERE job = ?1"), params![job])?;
                 }
                 tx.execute("DELETE FROM jobs WHERE id = ?1", params![job])?;
@@ -418,10 +428,20 @@ fn restore(conn: &Connection) -> rusqlite::Result<Restored> {
     })?;
     for row in rows {
         let (id, spec, state, reason, detach, ended_at) = row?;
-        let Ok(spec) = postcard::from_bytes::<JobSpec>(&spec) else {
+        let Ok(mut spec) = postcard::from_bytes::<JobSpec>(&spec) else {
             error!(job = id, "a job in the journal does not decode: skipped");
             continue;
         };
+        let mut f = conn.prepare_cached("SELECT shot, frame, frames FROM frames WHERE job = ?1")?;
+        spec.shot = f
+            .query_row(params![id], |r| {
+                Ok(ShotFrame {
+                    shot: JobId(r.get::<_, i64>(0)? as u64),
+                    frame: r.get(1)?,
+                    frames: r.get(2)?,
+                })
+            })
+            .optional()?;
         let ending = match state.as_str() {
             "done" => Some(Ending::Done),
             "failed" => Some(Ending::Failed(reason.unwrap_or_default())),
@@ -493,6 +513,7 @@ mod tests {
             owner: Owner::default(),
             detach: false,
             blobs,
+            shot: None,
         }
     }
 
@@ -531,5 +552,31 @@ mod tests {
         assert_eq!(purge(&j, vec![1]).await, vec![a]);
         assert_eq!(purge(&j, vec![2]).await, vec![b]);
         assert_eq!(purge(&j, vec![]).await, Vec::<Hash>::new());
+    }
+
+    /// A frame's place in its shot is journalled beside its job, comes
+    /// back when the coordinator restarts, and goes when the job is purged.
+    #[tokio::test]
+    async fn a_frames_shot_survives_a_restart() {
+        let dir = std::env::temp_dir().join(format!("farm-journal-shot-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let db = dir.join("state.db");
+        let frame = ShotFrame { shot: JobId(7), frame: 3, frames: 24 };
+        {
+            let (j, _) = Journal::open(Some(&db)).unwrap();
+            for (id, shot) in [(7, Some(frame)), (8, None)] {
+                let s = JobSpec { shot, ..spec(vec![[1u8; 32]]) };
+                j.send(Command::Submitted { id, detach: false, blobs: vec![], spec: Box::new(s) });
+            }
+            j.flush().await;
+        }
+        let (j, restored) = Journal::open(Some(&db)).unwrap();
+        let shots: Vec<_> = restored.jobs.iter().map(|s| (s.id, s.spec.shot)).collect();
+        assert_eq!(shots, [(7, Some(frame)), (8, None)]);
+        purge(&j, vec![7]).await;
+        drop(j);
+        let (_, restored) = Journal::open(Some(&db)).unwrap();
+        assert_eq!(restored.jobs.len(), 1);
+        std::fs::remove_dir_all(&dir).ok();
     }
 }
