@@ -23,12 +23,23 @@ pub struct FrameScene {
     pub desc: SceneDescription,
     /// The parser's warnings.
     pub warnings: Vec<Warning>,
-    /// When its parsing began.
-    pub start: Instant,
+    /// How long it took to parse.
+    pub parsed_in: std::time::Duration,
+}
+
+impl FrameScene {
+    /// When its parsing would have begun, had it begun just now: the start
+    /// of its start-up time, however long it waited to be rendered.
+    pub fn start(&self) -> Instant {
+        let now = Instant::now();
+        now.checked_sub(self.parsed_in).unwrap_or(now)
+    }
 }
 
 /// The frames of the scenes `scenes` yields from the files `inputs`
 /// (parsing began at `start`), each given its outputs by `outputs`.
+/// Frames are parsed one ahead of the one in use, on a thread of its
+/// own (see [`read_ahead`]), when the caller asks for it.
 pub fn frame_scenes<'a>(
     inputs: &'a [PathBuf],
     outputs: &'a mut Outputs,
@@ -45,7 +56,7 @@ pub fn frame_scenes<'a>(
             file: inputs[s.file].clone(),
             desc: s.desc,
             warnings: s.warnings,
-            start: parsed_at,
+            parsed_in: parsed_at.elapsed(),
         };
         parsed_at = Instant::now();
         Ok(frame)
@@ -130,6 +141,24 @@ pub fn expand_inputs(paths: &[PathBuf]) -> Result<Vec<PathBuf>, Error> {
         files.append(&mut found);
     }
     Ok(files)
+}
+
+/// What `iter` yields, each item made one ahead of its use on a thread of
+/// `scope`: the next frame is parsed while this one renders. Dropping the
+/// iterator stops the thread after the item it is making.
+pub fn read_ahead<'s, T: Send + 's>(
+    scope: &'s std::thread::Scope<'s, '_>,
+    iter: impl Iterator<Item = T> + Send + 's,
+) -> impl Iterator<Item = T> + 's {
+    let (tx, rx) = std::sync::mpsc::sync_channel(1);
+    scope.spawn(move || {
+        for item in iter {
+            if tx.send(item).is_err() {
+                break;
+            }
+        }
+    });
+    rx.into_iter()
 }
 
 /// Where each frame's image (and error map) goes, and the check that no
@@ -254,6 +283,23 @@ mod tests {
         let mut o = Outputs::new(Some(Path::new("one.exr")), None, 1, 1).unwrap();
         assert_eq!(o.claim(0, "x.exr").unwrap().image, Some(PathBuf::from("one.exr")));
         assert!(o.claim(1, "x.exr").is_err());
+    }
+
+    #[test]
+    fn reading_ahead_yields_the_same_items_and_stops_when_dropped() {
+        use std::sync::atomic::{AtomicUsize, Ordering};
+        let made = AtomicUsize::new(0);
+        std::thread::scope(|scope| {
+            let all: Vec<u32> = read_ahead(scope, 0..100u32).collect();
+            assert_eq!(all, (0..100).collect::<Vec<_>>());
+            let counted = (0..1000u32).inspect(|_| {
+                made.fetch_add(1, Ordering::Relaxed);
+            });
+            let first: Vec<u32> = read_ahead(scope, counted).take(3).collect();
+            assert_eq!(first, [0, 1, 2]);
+        });
+        // Three taken, one waiting in the channel, one made and refused.
+        assert!(made.load(Ordering::Relaxed) <= 5, "{}", made.load(Ordering::Relaxed));
     }
 
     #[test]

@@ -152,7 +152,8 @@ async fn submit_frame(
     sent: &mut HashSet<[u8; 32]>,
     totals: &mut ShotTotals,
 ) -> Result<Pending, Error> {
-    let FrameScene { out, file, mut desc, mut warnings, start } = frame;
+    let start = frame.start();
+    let FrameScene { out, file, mut desc, mut warnings, .. } = frame;
     opts.overrides.apply(&mut desc, &mut warnings);
     crate::client::check_outside(&desc, &file, opts.allow_assets_outside)?;
     let (manifest, assets) = encode_scene(&mut desc).map_err(|e| Error::Protocol(e.to_string()))?;

@@ -2,12 +2,13 @@
 //! own image (see [`crate::frames`]). Embedded, the frames render one after
 //! another on every core; on a farm, a few at a time ([`crate::shot`]).
 //! Each frame is written as soon as it is done, a frame that fails fails
-//! alone, and the shot ends with a line saying which frames failed.
+//! alone, and the shot ends with a line saying which frames failed. The
+//! next frame is parsed while one renders.
 
 use super::submit::SubmitArgs;
 use super::submit::{fail, finish, remote_options, run_embedded_to, show_progress, Parsed};
 use crate::error::Error;
-use crate::frames::{frame_scenes, FrameOutput, FrameScene, Outputs};
+use crate::frames::{frame_scenes, read_ahead, FrameOutput, FrameScene, Outputs};
 use crate::shot::{FrameEnd, ShotPlace};
 use farm_scene::{SceneError, StreamedScene};
 use std::collections::BTreeSet;
@@ -20,7 +21,7 @@ pub fn run(
     args: &SubmitArgs,
     inputs: &[PathBuf],
     first: StreamedScene,
-    rest: impl Iterator<Item = Result<StreamedScene, SceneError>>,
+    rest: impl Iterator<Item = Result<StreamedScene, SceneError>> + Send,
     start: Instant,
 ) -> ExitCode {
     if args.detach {
@@ -37,18 +38,21 @@ pub fn run(
         Ok(o) => o,
         Err(e) => return fail(&e),
     };
-    let frames = frame_scenes(inputs, &mut outputs, std::iter::once(Ok(first)).chain(rest), start);
-    let mut tally = Tally::default();
-    if args.coordinator.is_some() {
-        let frame_count = inputs.len() as u32;
-        crate::runtime::block_on(async move {
-            let stopped = on_farm(args, frames, frame_count, &mut tally).await;
+    std::thread::scope(|scope| {
+        let scenes = std::iter::once(Ok(first)).chain(rest);
+        let frames = read_ahead(scope, frame_scenes(inputs, &mut outputs, scenes, start));
+        let mut tally = Tally::default();
+        if args.coordinator.is_some() {
+            let frame_count = inputs.len() as u32;
+            crate::runtime::block_on(async move {
+                let stopped = on_farm(args, frames, frame_count, &mut tally).await;
+                tally.report(args, stopped)
+            })
+        } else {
+            let stopped = embedded(args, frames, &mut tally);
             tally.report(args, stopped)
-        })
-    } else {
-        let stopped = embedded(args, frames, &mut tally);
-        tally.report(args, stopped)
-    }
+        }
+    })
 }
 
 /// Renders each frame here in turn.
@@ -65,7 +69,8 @@ fn embedded(
             Ok(f) => f,
             Err(e) => return Some(e),
         };
-        let scene = Parsed { file: f.file, desc: f.desc, warnings: f.warnings, start: f.start };
+        let start = f.start();
+        let scene = Parsed { file: f.file, desc: f.desc, warnings: f.warnings, start };
         let code = run_embedded_to(args, scene, f.out.image.clone(), f.out.error_map.as_deref());
         tally.ended(&f.out, code == ExitCode::SUCCESS);
     }
