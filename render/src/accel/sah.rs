@@ -270,8 +270,26 @@ fn partition(v: &mut [PrimInfo], pred: impl Fn(&PrimInfo) -> bool) -> usize {
     let mut j = 0;
     for i in 0..v.len() {
         let keep = pred(&v[i]);
-        v.swap(i, j);
+        swap_fields(v, i, j);
         j += keep as usize;
     }
     j
+}
+
+/// `v.swap(i, j)`, field by field. A 28-byte element is
+/// otherwise copied as two overlapping 16-byte moves, and the next
+/// iteration's load of an element just stored that way cannot be forwarded
+/// from the store (it spans two of them) and waits for it to retire: a
+/// third of the SAH build's time on a large mesh.
+#[inline(always)]
+fn swap_fields(v: &mut [PrimInfo], i: usize, j: usize) {
+    let (a, b) = (v[i], v[j]);
+    let p = &mut v[j];
+    p.bounds.min = a.bounds.min;
+    p.bounds.max = a.bounds.max;
+    p.index = a.index;
+    let p = &mut v[i];
+    p.bounds.min = b.bounds.min;
+    p.bounds.max = b.bounds.max;
+    p.index = b.index;
 }
