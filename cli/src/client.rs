@@ -139,20 +139,32 @@ pub async fn start_parsed(
     for blob in assets.iter().chain(std::iter::once(&manifest)) {
         upload(&mut client, blob).await?;
     }
+    let request = submit_request(&manifest, crate::shot::file_name(scene), opts, None);
     let job = client
-        .submit_job(v1::SubmitJobRequest {
-            protocol_version: PROTOCOL_VERSION,
-            scene_hash: manifest.hash.to_vec(),
-            spp: opts.spp.unwrap_or(0),
-            priority: opts.priority,
-            name: crate::shot::file_name(scene),
-            detach: opts.detach,
-            shot: None,
-        })
+        .submit_job(v1::SubmitJobRequest { detach: opts.detach, ..request })
         .await?
         .into_inner()
         .job_id;
     Ok(Submitted { job, client, desc, warnings, startup_seconds: start.elapsed().as_secs_f64() })
+}
+
+/// The request that submits the scene whose manifest is `manifest` as a
+/// job called `name` (not detached), a frame of `shot` if given.
+pub fn submit_request(
+    manifest: &Blob,
+    name: String,
+    opts: &RemoteOptions,
+    shot: Option<v1::ShotFrame>,
+) -> v1::SubmitJobRequest {
+    v1::SubmitJobRequest {
+        protocol_version: PROTOCOL_VERSION,
+        scene_hash: manifest.hash.to_vec(),
+        spp: opts.spp.unwrap_or(0),
+        priority: opts.priority,
+        name,
+        detach: false,
+        shot,
+    }
 }
 
 /// Refuses a scene read from `scene` that names files outside its folder,

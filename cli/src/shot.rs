@@ -15,7 +15,6 @@ use farm_common::scene::Warning;
 use farm_proto::connect::Client;
 use farm_proto::convert::encode_scene;
 use farm_proto::v1;
-use farm_proto::PROTOCOL_VERSION;
 use farm_render::features::Features;
 use std::collections::HashSet;
 use std::path::{Path, PathBuf};
@@ -165,19 +164,8 @@ async fn submit_frame(
         upload(client, blob).await?;
         totals.uploaded_bytes += blob.data.len() as u64;
     }
-    let job = client
-        .submit_job(v1::SubmitJobRequest {
-            protocol_version: PROTOCOL_VERSION,
-            scene_hash: manifest.hash.to_vec(),
-            spp: opts.spp.unwrap_or(0),
-            priority: opts.priority,
-            name: file_name(&file),
-            detach: false,
-            shot: Some(shot),
-        })
-        .await?
-        .into_inner()
-        .job_id;
+    let request = crate::client::submit_request(&manifest, file_name(&file), opts, Some(shot));
+    let job = client.submit_job(request).await?.into_inner().job_id;
     let (film, _) = FilmGeometry::from_description(&desc);
     Ok(Pending {
         out,
