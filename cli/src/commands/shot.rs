@@ -121,7 +121,10 @@ async fn on_farm(
         &opts,
         place,
         args.frames_in_flight as usize,
-        |frame, p| show_progress(&bar, u64::from(frame), p),
+        |frame, p| {
+            show_progress(&bar, u64::from(frame), p);
+            bar.set_message(format!("frame {frame}, {} workers", p.workers));
+        },
         |end| {
             bar.suspend(|| match end {
                 FrameEnd::Done(summary, out) => {
