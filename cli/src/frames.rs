@@ -11,7 +11,7 @@ use farm_common::scene::{SceneDescription, Warning};
 use farm_scene::{SceneError, StreamedScene};
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
-use std::time::Instant;
+use std::time::{Duration, Instant};
 
 /// One frame of a shot, parsed.
 pub struct FrameScene {
@@ -24,7 +24,7 @@ pub struct FrameScene {
     /// The parser's warnings.
     pub warnings: Vec<Warning>,
     /// How long it took to parse.
-    pub parsed_in: std::time::Duration,
+    pub parsed_in: Duration,
 }
 
 impl FrameScene {
@@ -36,30 +36,33 @@ impl FrameScene {
     }
 }
 
-/// The frames of the scenes `scenes` yields from the files `inputs`
-/// (parsing began at `start`), each given its outputs by `outputs`.
-/// Frames are parsed one ahead of the one in use, on a thread of its
-/// own (see [`read_ahead`]), when the caller asks for it.
+/// The frames of the scenes `scenes` yields from the files `inputs`, each
+/// given its outputs by `outputs`; the first took `first_parsed` to parse
+/// (it was read before the shot began), the others' parse is timed here.
 pub fn frame_scenes<'a>(
     inputs: &'a [PathBuf],
     outputs: &'a mut Outputs,
-    scenes: impl Iterator<Item = Result<StreamedScene, SceneError>> + 'a,
-    start: Instant,
+    mut scenes: impl Iterator<Item = Result<StreamedScene, SceneError>> + 'a,
+    first_parsed: Duration,
 ) -> impl Iterator<Item = Result<FrameScene, Error>> + 'a {
-    let mut parsed_at = start;
-    scenes.enumerate().map(move |(index, scene)| {
-        let s = scene?;
-        let (film, _) = farm_common::film::FilmGeometry::from_description(&s.desc);
-        let out = outputs.claim(index, &film.filename)?;
-        let frame = FrameScene {
-            out,
-            file: inputs[s.file].clone(),
-            desc: s.desc,
-            warnings: s.warnings,
-            parsed_in: parsed_at.elapsed(),
-        };
-        parsed_at = Instant::now();
-        Ok(frame)
+    let mut index = 0;
+    std::iter::from_fn(move || {
+        let t = Instant::now();
+        let scene = scenes.next()?;
+        let parsed_in = if index == 0 { first_parsed } else { t.elapsed() };
+        let frame = scene.map_err(Error::from).and_then(|s| {
+            let (film, _) = farm_common::film::FilmGeometry::from_description(&s.desc);
+            let out = outputs.claim(index, &film.filename)?;
+            Ok(FrameScene {
+                out,
+                file: inputs[s.file].clone(),
+                desc: s.desc,
+                warnings: s.warnings,
+                parsed_in,
+            })
+        });
+        index += 1;
+        Some(frame)
     })
 }
 
@@ -185,20 +188,21 @@ pub struct FrameOutput {
 }
 
 impl Outputs {
-    /// The outputs of `inputs` files' frames: `-o` and `--error-map` must
-    /// carry a frame number when there are several files (a single file
-    /// with several scenes is caught at its second, by [`Outputs::claim`]).
+    /// The outputs of a shot's frames: `-o` and `--error-map` must carry a
+    /// frame number when there are `several` frames (if that is not known
+    /// yet, a plain name is refused at the second frame, by
+    /// [`Outputs::claim`]).
     pub fn new(
         output: Option<&Path>,
         error_map: Option<&Path>,
         first: u32,
-        inputs: usize,
+        several: bool,
     ) -> Result<Outputs, Error> {
         let split = |p: Option<&Path>, flag: &str| -> Result<_, Error> {
             let Some(p) = p else { return Ok((None, None)) };
             match OutputPattern::parse(p)? {
                 Some(pattern) => Ok((Some(pattern), None)),
-                None if inputs > 1 => Err(several(flag, &p.display().to_string())),
+                None if several => Err(one_name(flag, &p.display().to_string())),
                 None => Ok((None, Some(p.to_path_buf()))),
             }
         };
@@ -221,7 +225,7 @@ impl Outputs {
             pattern, plain,
         ) {
             (Some(p), _) => Ok(Some(p.frame(frame))),
-            (None, Some(p)) if index > 0 => Err(several(flag, &p.display().to_string())),
+            (None, Some(p)) if index > 0 => Err(one_name(flag, &p.display().to_string())),
             (None, plain) => Ok(plain.clone()),
         };
         let image = at(&self.image, &self.plain_image, "--output")?;
@@ -237,7 +241,7 @@ impl Outputs {
     }
 }
 
-fn several(flag: &str, name: &str) -> Error {
+fn one_name(flag: &str, name: &str) -> Error {
     Error::Usage(format!(
         "{flag} {name} names one file but there are several frames: put a frame number in it, e.g. frame-%04d.exr"
     ))
@@ -264,23 +268,24 @@ mod tests {
     #[test]
     fn several_frames_need_a_number_or_distinct_film_names() {
         // Several files and a plain -o: refused before anything renders.
-        let e = Outputs::new(Some(Path::new("one.exr")), None, 1, 3).err().unwrap();
+        let e = Outputs::new(Some(Path::new("one.exr")), None, 1, true).err().unwrap();
         assert!(e.to_string().contains("frame-%04d"), "{e}");
         // A pattern: frames from --first-frame.
         let mut o =
-            Outputs::new(Some(Path::new("f%03d.exr")), Some(Path::new("e%d.pfm")), 10, 2).unwrap();
+            Outputs::new(Some(Path::new("f%03d.exr")), Some(Path::new("e%d.pfm")), 10, true)
+                .unwrap();
         let f = o.claim(1, "ignored.exr").unwrap();
         assert_eq!(f.frame, 11);
         assert_eq!(f.image, Some(PathBuf::from("f011.exr")));
         assert_eq!(f.error_map, Some(PathBuf::from("e11.pfm")));
         // No -o: each scene's Film filename, once.
-        let mut o = Outputs::new(None, None, 1, 2).unwrap();
+        let mut o = Outputs::new(None, None, 1, true).unwrap();
         assert_eq!(o.claim(0, "a.exr").unwrap().image, None);
         assert!(o.claim(1, "b.exr").is_ok());
         let e = o.claim(2, "a.exr").unwrap_err().to_string();
         assert!(e.contains("frames 1 and 3 would both write a.exr"), "{e}");
         // One file, a plain -o, and a second scene in it.
-        let mut o = Outputs::new(Some(Path::new("one.exr")), None, 1, 1).unwrap();
+        let mut o = Outputs::new(Some(Path::new("one.exr")), None, 1, false).unwrap();
         assert_eq!(o.claim(0, "x.exr").unwrap().image, Some(PathBuf::from("one.exr")));
         assert!(o.claim(1, "x.exr").is_err());
     }

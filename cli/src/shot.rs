@@ -100,8 +100,10 @@ pub async fn submit_shot(
             };
             totals.frames += 1;
             let out = frame.out.clone();
-            let shot =
-                v1::ShotFrame { shot: totals.shot, frame: out.frame, frames: frames_declared };
+            // The files given, or the scenes met so far if more (a file
+            // with several WorldEnds).
+            let frames = frames_declared.max(totals.frames as u32);
+            let shot = v1::ShotFrame { shot: totals.shot, frame: out.frame, frames };
             match submit_frame(&mut client, frame, opts, shot, &mut sent, &mut totals).await {
                 Ok(p) => {
                     if totals.shot == 0 {
@@ -157,11 +159,14 @@ async fn submit_frame(
     crate::client::check_outside(&desc, &file, opts.allow_assets_outside)?;
     let (manifest, assets) = encode_scene(&mut desc).map_err(|e| Error::Protocol(e.to_string()))?;
     for blob in assets.iter().chain(std::iter::once(&manifest)) {
-        if !sent.insert(blob.hash) {
+        if sent.contains(&blob.hash) {
             totals.blobs_reused += 1;
             continue;
         }
+        // Marked sent only once it is: a failed upload is tried again by
+        // the next frame that needs the blob.
         upload(client, blob).await?;
+        sent.insert(blob.hash);
         totals.uploaded_bytes += blob.data.len() as u64;
     }
     let request = crate::client::submit_request(&manifest, file_name(&file), opts, Some(shot));

@@ -43,8 +43,8 @@ async fn a_shot_renders_the_same_frames_embedded_and_on_two_workers_sending_its_
     assert!(mesh > 16 << 10, "the mesh's blob is {mesh} bytes");
 
     let cluster = TestCluster::start(2, Duration::from_millis(500)).await;
-    let mut outputs = Outputs::new(None, None, 1, inputs.len()).unwrap();
-    let frames = frame_scenes(&inputs, &mut outputs, SceneStream::new(&inputs), Instant::now());
+    let mut outputs = Outputs::new(None, None, 1, true).unwrap();
+    let frames = frame_scenes(&inputs, &mut outputs, SceneStream::new(&inputs), Duration::ZERO);
     let mut farm: BTreeMap<u32, RgbImage> = BTreeMap::new();
     let remote_opts = RemoteOptions { spp: Some(2), ..Default::default() };
     let place = ShotPlace { shot: None, frames: 24 };
@@ -119,9 +119,9 @@ async fn a_failed_frame_fails_alone_and_a_retry_renders_only_it() {
         let (dir, remote, opts) = (dir.clone(), cluster.remote(), opts.clone());
         async move {
             let inputs = expand_inputs(&[dir]).unwrap();
-            let mut outputs = Outputs::new(None, None, 1, inputs.len()).unwrap();
+            let mut outputs = Outputs::new(None, None, 1, true).unwrap();
             let frames =
-                frame_scenes(&inputs, &mut outputs, SceneStream::new(&inputs), Instant::now())
+                frame_scenes(&inputs, &mut outputs, SceneStream::new(&inputs), Duration::ZERO)
                     .filter(|f| f.as_ref().map_or(true, |f| !skip.contains(&f.out.frame)));
             let (mut done, mut failed) = (Vec::new(), Vec::new());
             let place = ShotPlace { shot, frames: 3 };
@@ -160,9 +160,20 @@ async fn a_failed_frame_fails_alone_and_a_retry_renders_only_it() {
     assert_eq!((totals.frames, totals.shot, done, failed.len()), (1, shot, vec![2], 0));
     let view = existing_shot(&cluster.remote(), shot).await.unwrap();
     assert_eq!(view.done, [1, 2, 3]);
-    // Another client's or a made-up shot cannot be added to.
+    // A made-up shot is not listed, and the coordinator refuses frames of it.
     let e = existing_shot(&cluster.remote(), shot + 100).await.unwrap_err().to_string();
     assert!(e.contains("no shot"), "{e}");
+    let mut s = SceneStream::new(&[dir.join("frame-0001.pbrt")]).next().unwrap().unwrap();
+    let (manifest, assets) = encode_scene(&mut s.desc).unwrap();
+    let mut c = farm_cli::client::connect(&cluster.remote()).await.unwrap();
+    for b in assets.iter().chain([&manifest]) {
+        farm_cli::client::upload(&mut c, b).await.unwrap();
+    }
+    let frame = farm_proto::v1::ShotFrame { shot: shot + 100, frame: 1, frames: 3 };
+    let request = farm_cli::client::submit_request(&manifest, "x".into(), &opts, Some(frame));
+    let e = c.submit_job(request).await.unwrap_err();
+    assert_eq!(e.code(), tonic::Code::InvalidArgument, "{e}");
+    assert!(e.message().contains("no shot"), "{e}");
     cluster.stop().await;
     std::fs::remove_dir_all(&dir).ok();
 }

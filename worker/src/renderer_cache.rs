@@ -135,11 +135,24 @@ impl RendererCache {
         let decoded = pool.run(move || decode_manifest(&manifest)).await;
         let (mut desc, assets) =
             decoded.map_err(|e| bad_scene(e.to_string()))?.map_err(|e| bad_scene(e.to_string()))?;
-        // Assets come verified from the blob cache.
+        // Assets come verified from the blob cache; they are put in the
+        // description on the pool, since a shape's parameters sent apart
+        // are a whole mesh to decode.
+        let mut fetched = Vec::with_capacity(assets.len());
         for (key, hash) in assets {
-            let data = blobs.get_or_fetch(source, hash).await.map_err(fetch_failed)?;
-            attach_asset(&mut desc, key, &data).map_err(|e| bad_scene(e.to_string()))?;
+            fetched.push((key, blobs.get_or_fetch(source, hash).await.map_err(fetch_failed)?));
         }
+        let attached = pool
+            .run(move || {
+                for (key, data) in fetched {
+                    attach_asset(&mut desc, key, &data)?;
+                }
+                Ok::<_, farm_proto::Error>(desc)
+            })
+            .await;
+        let desc = attached
+            .map_err(|e| bad_scene(e.to_string()))?
+            .map_err(|e| bad_scene(e.to_string()))?;
 
         let opts = RenderOptions { spp: (spp > 0).then_some(spp), ..Default::default() };
         let built = pool.run(move || Renderer::new(desc, &opts)).await;

@@ -14,7 +14,7 @@ use farm_scene::{SceneError, StreamedScene};
 use std::collections::BTreeSet;
 use std::path::PathBuf;
 use std::process::ExitCode;
-use std::time::Instant;
+use std::time::Duration;
 
 /// Renders the shot whose first scene is `first` and the rest `rest`.
 pub fn run(
@@ -22,7 +22,7 @@ pub fn run(
     inputs: &[PathBuf],
     first: StreamedScene,
     rest: impl Iterator<Item = Result<StreamedScene, SceneError>> + Send,
-    start: Instant,
+    first_parsed: Duration,
 ) -> ExitCode {
     if args.detach {
         return fail(&Error::Usage(
@@ -33,14 +33,14 @@ pub fn run(
         args.output.as_deref(),
         args.error_map.as_deref(),
         args.first_frame,
-        inputs.len(),
+        true,
     ) {
         Ok(o) => o,
         Err(e) => return fail(&e),
     };
     std::thread::scope(|scope| {
         let scenes = std::iter::once(Ok(first)).chain(rest);
-        let frames = read_ahead(scope, frame_scenes(inputs, &mut outputs, scenes, start));
+        let frames = read_ahead(scope, frame_scenes(inputs, &mut outputs, scenes, first_parsed));
         let mut tally = Tally::default();
         if args.coordinator.is_some() {
             let frame_count = inputs.len() as u32;

@@ -127,21 +127,21 @@ pub fn run(mut args: SubmitArgs) -> ExitCode {
         Some(Err(e)) => return fail(&e.into()),
         None => return fail(&crate::error::Error::Usage("no scene to render".into())),
     };
-    if inputs.len() > 1 || args.retry_failed.is_some() || stream.peek().is_some() {
-        return super::shot::run(&args, &inputs, first, stream, start);
+    // Several scenes are a shot (several files may also make one scene, as
+    // options in one and the world in another).
+    let first_parsed = start.elapsed();
+    if args.retry_failed.is_some() || stream.peek().is_some() {
+        return super::shot::run(&args, &inputs, first, stream, first_parsed);
     }
-    // One scene: an output name with a frame number is frame --first-frame.
-    let one = crate::frames::Outputs::new(
-        args.output.as_deref(),
-        args.error_map.as_deref(),
-        args.first_frame,
-        1,
-    )
-    .and_then(|mut o| o.claim(0, ""));
-    match one {
-        Ok(out) => (args.output, args.error_map) = (out.image, out.error_map),
-        Err(e) => return fail(&e),
-    }
+    // One scene: an output name with a frame number is frame --first-frame;
+    // any other `%` in it is only a character.
+    let numbered = |p: Option<PathBuf>| {
+        p.map(|p| match crate::frames::OutputPattern::parse(&p) {
+            Ok(Some(pattern)) => pattern.frame(args.first_frame),
+            _ => p,
+        })
+    };
+    (args.output, args.error_map) = (numbered(args.output.take()), numbered(args.error_map.take()));
     let scene =
         Parsed { file: inputs[0].clone(), desc: first.desc, warnings: first.warnings, start };
     if args.coordinator.is_some() {

@@ -38,16 +38,18 @@ impl Scheduler {
     }
 
     /// Refuses a frame that names a shot (other than a new one) that is
-    /// not a shot of the same client's. A shot is known while its first
-    /// frame's job is (until `--keep-finished` forgets it).
+    /// not a shot of the same client's. A shot is known while any of its
+    /// frames' jobs is (until `--keep-finished` forgets the last), so a
+    /// shot longer than that still takes its next frames.
     pub fn check_shot(&self, spec: &JobSpec) -> Result<(), String> {
         let Some(s) = spec.shot.filter(|s| s.shot.0 != 0) else { return Ok(()) };
-        let first = self.jobs.get(&s.shot).filter(|j| {
+        let known = self.jobs.values().any(|j| {
             j.spec.owner.id == spec.owner.id && j.spec.shot.is_some_and(|f| f.shot == s.shot)
         });
-        match first {
-            Some(_) => Ok(()),
-            None => Err(format!("there is no shot {} of yours on this coordinator", s.shot.0)),
+        if known {
+            Ok(())
+        } else {
+            Err(format!("there is no shot {} of yours on this coordinator", s.shot.0))
         }
     }
 

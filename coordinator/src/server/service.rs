@@ -9,7 +9,7 @@ use crate::state::BlobStore;
 use farm_common::film::Limits;
 use farm_common::ids::{JobId, WorkerId};
 use farm_proto::auth::Role;
-use farm_proto::convert::{decode_manifest, Hash};
+use farm_proto::convert::{decode_manifest, is_shape_key, Hash};
 use farm_proto::v1::{self, coordinator_server::Coordinator, worker_message};
 use farm_proto::{default_in_flight, BLOB_CHUNK_SIZE, PROTOCOL_VERSION};
 use std::collections::HashMap;
@@ -378,10 +378,24 @@ impl Coordinator for CoordinatorService {
         let (desc, assets) =
             decode_manifest(&manifest).map_err(|e| Error::BadManifest(e.to_string()))?;
         drop(manifest);
+        // Shapes' parameters sent apart are decoded by every worker, once
+        // per shape that names them: bounded in all as the manifest is.
+        let mut shape_bytes = 0u64;
         for (key, hash) in &assets {
-            if !self.blobs.contains(hash) {
-                return Err(Error::MissingAsset(key.clone()).into());
+            let Some(size) = self.blobs.size(hash) else {
+                return Err(Error::MissingAsset(key.trim_start_matches('\0').to_string()).into());
+            };
+            if is_shape_key(key) {
+                shape_bytes = shape_bytes.saturating_add(size);
             }
+        }
+        if shape_bytes > MAX_MANIFEST {
+            return Err(Error::BadManifest(format!(
+                "the scene's shapes take {} with their parameters sent apart, over the {} a scene may",
+                crate::state::bytes(shape_bytes),
+                crate::state::bytes(MAX_MANIFEST)
+            ))
+            .into());
         }
         let mut blobs: Vec<Hash> = assets.iter().map(|(_, h)| *h).collect();
         blobs.push(manifest_hash);

@@ -577,6 +577,9 @@ mod tests {
         drop(j);
         let (_, restored) = Journal::open(Some(&db)).unwrap();
         assert_eq!(restored.jobs.len(), 1);
+        let conn = Connection::open(&db).unwrap();
+        let rows: i64 = conn.query_row("SELECT count(*) FROM frames", [], |r| r.get(0)).unwrap();
+        assert_eq!(rows, 0, "the purged frame's row is gone");
         std::fs::remove_dir_all(&dir).ok();
     }
 }

@@ -75,6 +75,11 @@ pub fn encode_scene(desc: &mut SceneDescription) -> Result<(Blob, Vec<Blob>), Er
     Ok((Blob::new(bytes), blobs))
 }
 
+/// Whether an asset key names a shape's parameters sent apart.
+pub fn is_shape_key(key: &str) -> bool {
+    key.starts_with(SHAPE_KEY)
+}
+
 /// The shape a [`SHAPE_KEY`] key names, if it is one and the scene has it.
 fn shape_at<'d>(desc: &'d mut SceneDescription, key: &str) -> Option<&'d mut ShapeEntity> {
     let rest = key.strip_prefix(SHAPE_KEY)?;
@@ -114,7 +119,7 @@ pub fn decode_scene(
 /// the description from [`decode_manifest`]: a file's bytes into its
 /// assets, a shape's parameters sent apart back into the shape.
 pub fn attach_asset(desc: &mut SceneDescription, key: String, data: &[u8]) -> Result<(), Error> {
-    if !key.starts_with(SHAPE_KEY) {
+    if !is_shape_key(&key) {
         desc.assets.insert(key, data.to_vec());
         return Ok(());
     }
