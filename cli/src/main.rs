@@ -5,6 +5,7 @@ use std::io::IsTerminal;
 use std::process::ExitCode;
 
 fn main() -> ExitCode {
+    fixed_mmap_threshold();
     let cli = farm_cli::Cli::parse();
     tracing_subscriber::fmt()
         .with_env_filter(
@@ -18,3 +19,21 @@ fn main() -> ExitCode {
         .init();
     farm_cli::run(cli)
 }
+
+/// Large blocks (1 MiB and up) get pages of their own, given back when
+/// freed. glibc otherwise raises its threshold to the size of each large
+/// block freed (up to 32 MiB) and serves later ones that size from its
+/// heap, where freeing them keeps the memory: a mesh's BVH build records
+/// (28 bytes a triangle, freed once the tree is built) stayed resident,
+/// 19 MB of a 1M-triangle render's 107 MB peak.
+#[cfg(all(target_os = "linux", target_env = "gnu"))]
+fn fixed_mmap_threshold() {
+    // SAFETY: mallopt only sets an allocator parameter; it is called
+    // before any other thread exists.
+    unsafe {
+        libc::mallopt(libc::M_MMAP_THRESHOLD, 1 << 20);
+    }
+}
+
+#[cfg(not(all(target_os = "linux", target_env = "gnu")))]
+fn fixed_mmap_threshold() {}
