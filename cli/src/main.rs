@@ -5,8 +5,13 @@ use std::io::IsTerminal;
 use std::process::ExitCode;
 
 fn main() -> ExitCode {
-    fixed_mmap_threshold();
     let cli = farm_cli::Cli::parse();
+    // Processes that build scenes; a coordinator never does, and its
+    // frequent large buffers (previews, image chunks) would each cost
+    // fresh pages.
+    if !matches!(cli.command, farm_cli::Command::Coordinator(_)) {
+        fixed_mmap_threshold();
+    }
     tracing_subscriber::fmt()
         .with_env_filter(
             tracing_subscriber::EnvFilter::try_from_env("FARM_LOG")
@@ -29,7 +34,7 @@ fn main() -> ExitCode {
 #[cfg(all(target_os = "linux", target_env = "gnu"))]
 fn fixed_mmap_threshold() {
     // SAFETY: mallopt only sets an allocator parameter; it is called
-    // before any other thread exists.
+    // before any other thread exists (clap's parsing starts none).
     unsafe {
         libc::mallopt(libc::M_MMAP_THRESHOLD, 1 << 20);
     }
