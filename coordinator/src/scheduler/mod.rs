@@ -11,6 +11,8 @@ mod fill;
 mod job;
 mod jobs;
 mod outbox;
+#[cfg(test)]
+mod queue_tests;
 mod restore;
 #[cfg(test)]
 mod tests;

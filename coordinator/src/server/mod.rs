@@ -7,6 +7,7 @@ mod from_worker;
 mod live;
 mod outbox;
 mod service;
+mod submission;
 
 pub use events::{Event, FromWorker};
 pub use service::MAX_WATCHES_PER_TOKEN;

@@ -3,13 +3,12 @@
 
 use super::events::{Event, FromWorker};
 use crate::error::Error;
-use crate::scheduler::{JobSpec, Owner, ShotFrame};
+use crate::scheduler::Owner;
 use crate::security::{require, Action, Principal};
 use crate::state::BlobStore;
 use farm_common::film::Limits;
 use farm_common::ids::{JobId, WorkerId};
 use farm_proto::auth::Role;
-use farm_proto::convert::{decode_manifest, is_shape_key, Hash};
 use farm_proto::v1::{self, coordinator_server::Coordinator, worker_message};
 use farm_proto::{default_in_flight, BLOB_CHUNK_SIZE, PROTOCOL_VERSION};
 use std::collections::HashMap;
@@ -23,10 +22,6 @@ use tokio_stream::wrappers::{ReceiverStream, UnboundedReceiverStream};
 use tokio_stream::{Stream, StreamExt};
 use tonic::{Request, Response, Status, Streaming};
 use tracing::{info, warn};
-
-/// The largest scene manifest (the scene file and its includes, without
-/// assets) a coordinator decodes.
-pub const MAX_MANIFEST: u64 = 256 << 20;
 
 /// Bytes per `FetchBlob` chunk: smaller than uploads' chunks, since what a
 /// stalled reader pins in memory is a few of them.
@@ -207,20 +202,6 @@ fn check_version(v: u32) -> Result<(), Status> {
 }
 
 /// The event loop's answer; none means it has stopped.
-/// The most frames a shot may declare.
-pub const MAX_FRAMES: u32 = 1_000_000;
-
-/// A submitted job's place in a shot, checked for sense (whether the shot
-/// is the client's is the event loop's to check).
-fn shot_frame(s: Option<&v1::ShotFrame>) -> Result<Option<ShotFrame>, Status> {
-    let Some(s) = s else { return Ok(None) };
-    if s.frames == 0 || s.frames > MAX_FRAMES {
-        let why = format!("a shot has 1 to {MAX_FRAMES} frames, not {}", s.frames);
-        return Err(Error::BadShot(why).into());
-    }
-    Ok(Some(ShotFrame { shot: JobId(s.shot), frame: s.frame, frames: s.frames }))
-}
-
 async fn answer<T>(rx: oneshot::Receiver<T>) -> Result<T, Status> {
     rx.await.map_err(|_| Error::ShuttingDown.into())
 }
@@ -361,68 +342,8 @@ impl Coordinator for CoordinatorService {
         let by = require(&req, Action::Submit)?;
         let r = req.into_inner();
         check_version(r.protocol_version)?;
-        let manifest_hash: Hash =
-            r.scene_hash.as_slice().try_into().map_err(|_| Error::NoManifest)?;
-        // The coordinator decodes the manifest, so its size is bounded
-        // before it is read (assets are only hashed, never decoded here).
-        let size = self.blobs.size(&manifest_hash).ok_or(Error::NoManifest)?;
-        if size > MAX_MANIFEST {
-            return Err(Error::BadManifest(format!(
-                "the scene manifest is {}, over the {} a coordinator decodes",
-                crate::state::bytes(size),
-                crate::state::bytes(MAX_MANIFEST)
-            ))
-            .into());
-        }
-        let manifest = self.blobs.read(&manifest_hash).await.ok_or(Error::NoManifest)?;
-        let (desc, assets) =
-            decode_manifest(&manifest).map_err(|e| Error::BadManifest(e.to_string()))?;
-        drop(manifest);
-        // Shapes' parameters sent apart are decoded by every worker, once
-        // per shape that names them: bounded in all as the manifest is.
-        let mut shape_bytes = 0u64;
-        for (key, hash) in &assets {
-            let Some(size) = self.blobs.size(hash) else {
-                return Err(Error::MissingAsset(key.trim_start_matches('\0').to_string()).into());
-            };
-            if is_shape_key(key) {
-                shape_bytes = shape_bytes.saturating_add(size);
-            }
-        }
-        if shape_bytes > MAX_MANIFEST {
-            return Err(Error::BadManifest(format!(
-                "the scene's shapes take {} with their parameters sent apart, over the {} a scene may",
-                crate::state::bytes(shape_bytes),
-                crate::state::bytes(MAX_MANIFEST)
-            ))
-            .into());
-        }
-        let mut blobs: Vec<Hash> = assets.iter().map(|(_, h)| *h).collect();
-        blobs.push(manifest_hash);
-        blobs.sort_unstable();
-        blobs.dedup();
-        let spp_override = (r.spp > 0).then_some(r.spp);
-        // Refused before anything is allocated for it.
-        let (layout, _) = farm_common::film::checked_layout(&desc, spp_override, &self.limits)
-            .inspect_err(|e| warn!(error = %e, "job refused"))
-            .map_err(Error::from)?;
-        let spp = layout.spp();
-        let geometry = layout.geometry;
-        if geometry.cropped_pixel_bounds.is_empty() {
-            return Err(Error::EmptyFilm.into());
-        }
-        let spec = JobSpec {
-            name: if r.name.is_empty() { desc.name.clone() } else { r.name },
-            priority: r.priority,
-            scene_hash: r.scene_hash,
-            spp_override: r.spp,
-            spp,
-            geometry,
-            owner: Owner { id: by.id, name: by.name },
-            detach: r.detach,
-            blobs,
-            shot: shot_frame(r.shot.as_ref())?,
-        };
+        let owner = Owner { id: by.id, name: by.name };
+        let spec = super::submission::job_spec(&self.blobs, &self.limits, r, owner).await?;
         let (reply, rx) = oneshot::channel();
         self.send(Event::Submit { spec, reply })?;
         let id = answer(rx).await??;
