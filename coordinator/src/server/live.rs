@@ -37,8 +37,11 @@ pub enum LiveAnswer {
 }
 
 /// How long after a page last looked at a running job its finished image
-/// is kept in memory for it.
-const PAGE_LOOKS_EVERY: Duration = Duration::from_secs(5);
+/// is kept in memory for it: twice the longest a page waits between looks
+/// (five seconds, `nextLook` in `dashboard.js`), so that a page still
+/// open, whose look takes time of its own, is not answered from the
+/// journal (a read of the whole image on the journal's thread).
+const PAGE_LOOKS_EVERY: Duration = Duration::from_secs(10);
 /// How long a finished image is kept for the pages that were open.
 const KEEP_FOR: Duration = Duration::from_secs(30);
 /// At most this many bytes of finished images are kept.
