@@ -14,6 +14,7 @@ use farm_proto::convert::{blob_chunks, decode_preview, encode_scene, Blob, Image
 use farm_proto::v1::{self, job_event};
 use farm_proto::PROTOCOL_VERSION;
 use farm_render::features::Features;
+use std::collections::HashSet;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
@@ -132,13 +133,9 @@ pub async fn start_parsed(
     start: Instant,
     opts: &RemoteOptions,
 ) -> Result<Submitted, Error> {
-    opts.overrides.apply(&mut desc, &mut warnings);
-    check_outside(&desc, scene, opts.allow_assets_outside)?;
-    let (manifest, assets) = encode_scene(&mut desc).map_err(|e| Error::Protocol(e.to_string()))?;
+    let (manifest, assets) = prepare_scene(&mut desc, &mut warnings, scene, opts)?;
     let mut client = connect(remote).await?;
-    for blob in assets.iter().chain(std::iter::once(&manifest)) {
-        upload(&mut client, blob).await?;
-    }
+    upload_new(&mut client, &manifest, &assets, &mut HashSet::new()).await?;
     let request = submit_request(&manifest, crate::shot::file_name(scene), opts, None);
     let job = client
         .submit_job(v1::SubmitJobRequest { detach: opts.detach, ..request })
@@ -146,6 +143,51 @@ pub async fn start_parsed(
         .into_inner()
         .job_id;
     Ok(Submitted { job, client, desc, warnings, startup_seconds: start.elapsed().as_secs_f64() })
+}
+
+/// A scene parsed from `scene` (its first file) made ready to send: the
+/// command line's overrides applied, its assets checked against the
+/// folder they may come from, and encoded as a manifest and blobs.
+pub fn prepare_scene(
+    desc: &mut SceneDescription,
+    warnings: &mut Vec<Warning>,
+    scene: &Path,
+    opts: &RemoteOptions,
+) -> Result<(Blob, Vec<Blob>), Error> {
+    opts.overrides.apply(desc, warnings);
+    check_outside(desc, scene, opts.allow_assets_outside)?;
+    encode_scene(desc).map_err(|e| Error::Protocol(e.to_string()))
+}
+
+/// What [`upload_new`] sent.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct Uploaded {
+    /// Bytes uploaded.
+    pub bytes: u64,
+    /// Blobs skipped, already sent.
+    pub reused: usize,
+}
+
+/// Uploads a scene's blobs and then its manifest, skipping those whose
+/// hash is in `sent`. A blob joins `sent` only once it is uploaded, so
+/// after a failed upload the next scene that needs it tries again.
+pub async fn upload_new(
+    client: &mut Client,
+    manifest: &Blob,
+    assets: &[Blob],
+    sent: &mut HashSet<[u8; 32]>,
+) -> Result<Uploaded, Error> {
+    let mut done = Uploaded::default();
+    for blob in assets.iter().chain(std::iter::once(manifest)) {
+        if sent.contains(&blob.hash) {
+            done.reused += 1;
+            continue;
+        }
+        upload(client, blob).await?;
+        sent.insert(blob.hash);
+        done.bytes += blob.data.len() as u64;
+    }
+    Ok(done)
 }
 
 /// The request that submits the scene whose manifest is `manifest` as a

@@ -6,14 +6,15 @@
 //! content-addressed), and each frame is written as soon as its image
 //! arrives. A frame that fails fails alone.
 
-use crate::client::{connect, follow, upload, JobImage, Remote, RemoteOptions, RemoteProgress};
+use crate::client::{
+    connect, follow, prepare_scene, upload_new, JobImage, Remote, RemoteOptions, RemoteProgress,
+};
 use crate::embedded::RenderSummary;
 use crate::error::Error;
 use crate::frames::{FrameOutput, FrameScene};
 use farm_common::film::FilmGeometry;
 use farm_common::scene::Warning;
 use farm_proto::connect::Client;
-use farm_proto::convert::encode_scene;
 use farm_proto::v1;
 use farm_render::features::Features;
 use std::collections::HashSet;
@@ -131,7 +132,7 @@ pub async fn submit_shot(
             Some(joined) = running.join_next() => {
                 let (p, image) = joined.map_err(|e| Error::Protocol(format!("a frame's task: {e}")))?;
                 on_end(match image {
-                    Ok(image) => FrameEnd::Done(Box::new(summary(&p, image)), p.out),
+                    Ok(image) => summary(p, image),
                     Err(e) => FrameEnd::Failed(p.out, e),
                 });
             }
@@ -155,20 +156,10 @@ async fn submit_frame(
 ) -> Result<Pending, Error> {
     let start = frame.start();
     let FrameScene { out, file, mut desc, mut warnings, .. } = frame;
-    opts.overrides.apply(&mut desc, &mut warnings);
-    crate::client::check_outside(&desc, &file, opts.allow_assets_outside)?;
-    let (manifest, assets) = encode_scene(&mut desc).map_err(|e| Error::Protocol(e.to_string()))?;
-    for blob in assets.iter().chain(std::iter::once(&manifest)) {
-        if sent.contains(&blob.hash) {
-            totals.blobs_reused += 1;
-            continue;
-        }
-        // Marked sent only once it is: a failed upload is tried again by
-        // the next frame that needs the blob.
-        upload(client, blob).await?;
-        sent.insert(blob.hash);
-        totals.uploaded_bytes += blob.data.len() as u64;
-    }
+    let (manifest, assets) = prepare_scene(&mut desc, &mut warnings, &file, opts)?;
+    let up = upload_new(client, &manifest, &assets, sent).await?;
+    totals.blobs_reused += up.reused;
+    totals.uploaded_bytes += up.bytes;
     let request = crate::client::submit_request(&manifest, file_name(&file), opts, Some(shot));
     let job = client.submit_job(request).await?.into_inner().job_id;
     let (film, _) = FilmGeometry::from_description(&desc);
@@ -189,19 +180,21 @@ pub fn file_name(file: &Path) -> String {
 }
 
 /// A frame's image and what is known of its scene, as a render's summary.
-fn summary(p: &Pending, image: JobImage) -> RenderSummary {
-    RenderSummary {
+fn summary(p: Pending, image: JobImage) -> FrameEnd {
+    let output = p.out.image.clone().unwrap_or_else(|| PathBuf::from(&p.film_filename));
+    let summary = RenderSummary {
         image: image.image,
         error: image.error,
-        output: p.out.image.clone().unwrap_or_else(|| PathBuf::from(&p.film_filename)),
+        output,
         stats: image.stats,
         spp: image.spp,
         startup_seconds: p.startup_seconds,
         render_seconds: image.render_seconds,
-        features: p.features.clone(),
-        scene_name: p.scene_name.clone(),
-        warnings: p.warnings.clone(),
-    }
+        features: p.features,
+        scene_name: p.scene_name,
+        warnings: p.warnings,
+    };
+    FrameEnd::Done(Box::new(summary), p.out)
 }
 
 /// A shot as a status listing shows it: each frame counted once, by its

@@ -84,11 +84,10 @@ async fn on_farm(
     frame_count: u32,
     tally: &mut Tally,
 ) -> Option<Error> {
-    let token = match args.token.token() {
-        Ok(t) => t,
+    let remote = match super::submit::remote(args) {
+        Ok(r) => r,
         Err(e) => return Some(e),
     };
-    let remote = crate::client::Remote { url: args.coordinator.clone().unwrap_or_default(), token };
     if args.display_server.is_some() && !args.quiet {
         eprintln!(
             "warning: --display-server streams single renders from a farm, not shots; ignored"

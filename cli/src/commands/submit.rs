@@ -190,12 +190,17 @@ pub(super) struct Parsed {
     pub start: std::time::Instant,
 }
 
+/// The coordinator `--coordinator` names, with the token given.
+pub(super) fn remote(args: &SubmitArgs) -> Result<crate::client::Remote, crate::error::Error> {
+    let token = args.token.token()?;
+    Ok(crate::client::Remote { url: args.coordinator.clone().unwrap_or_default(), token })
+}
+
 async fn run_remote(args: &SubmitArgs, scene: Parsed) -> ExitCode {
-    let token = match args.token.token() {
-        Ok(t) => t,
+    let remote = match remote(args) {
+        Ok(r) => r,
         Err(e) => return fail(&e),
     };
-    let remote = crate::client::Remote { url: args.coordinator.clone().unwrap_or_default(), token };
     let opts = remote_options(args);
     if args.detach {
         let Parsed { file, desc, warnings, start } = scene;
