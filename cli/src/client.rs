@@ -4,7 +4,7 @@
 use crate::display::LiveDisplay;
 use crate::embedded::RenderSummary;
 use crate::error::Error;
-use farm_common::film::FilmGeometry;
+use farm_common::film::{FilmGeometry, PassEnd, PassStop};
 use farm_common::scene::{SceneDescription, Warning};
 use farm_common::stats::RayStats;
 use farm_coordinator::estimate::ErrorEstimate;
@@ -67,6 +67,11 @@ pub struct RemoteOptions {
     pub display_server: Option<String>,
     /// Print nothing but errors (a display server that cannot be reached).
     pub quiet: bool,
+    /// Render in passes and stop at this estimated relMSE (`--target-error`).
+    pub target_error: Option<f64>,
+    /// Render in passes and stop after the pass that ends past this many
+    /// seconds (`--time-limit`).
+    pub time_limit: Option<f64>,
 }
 
 impl Default for RemoteOptions {
@@ -81,6 +86,8 @@ impl Default for RemoteOptions {
             overrides: farm_scene::Overrides::default(),
             display_server: None,
             quiet: false,
+            target_error: None,
+            time_limit: None,
         }
     }
 }
@@ -206,6 +213,8 @@ pub fn submit_request(
         name,
         detach: false,
         shot,
+        target_error: opts.target_error,
+        time_limit: opts.time_limit,
     }
 }
 
@@ -269,6 +278,8 @@ pub async fn submit_parsed(
         features: Features::of(&desc),
         scene_name: desc.name,
         warnings,
+        passes: done.passes,
+        stopped: done.stopped,
     })
 }
 
@@ -285,6 +296,10 @@ pub struct JobImage {
     pub render_seconds: f64,
     /// Rays traced.
     pub stats: RayStats,
+    /// A render in passes: what each pass left.
+    pub passes: Vec<PassEnd>,
+    /// Why a render in passes stopped.
+    pub stopped: Option<PassStop>,
 }
 
 /// Whether a failed call may succeed against the coordinator later: it
@@ -388,6 +403,8 @@ async fn watch_once(
                     spp: done.facts.spp,
                     render_seconds: done.facts.render_seconds,
                     stats: done.facts.stats,
+                    passes: done.facts.passes,
+                    stopped: done.facts.stopped,
                 });
             }
             Some(job_event::Kind::Failed(f)) => return Err(Error::JobFailed(f.message)),

@@ -7,7 +7,9 @@
 
 use crate::display::Display;
 use crate::error::Error;
-use farm_common::film::{checked_layout, FilmGeometry, FilmTile, Limits};
+use farm_common::film::{
+    checked_layout, FilmGeometry, FilmTile, Limits, PassEnd, PassPlan, PassStop, SampleRange,
+};
 use farm_common::ids::{JobId, TileAttempt, TileId, WorkerId};
 use farm_common::image::{self, ImageMetadata, RgbImage};
 use farm_common::scene::{SceneDescription, Warning};
@@ -45,6 +47,12 @@ pub struct SubmitOptions {
     pub overrides: farm_scene::Overrides,
     /// A display server (tev) to stream the image to, `HOST:PORT`.
     pub display_server: Option<String>,
+    /// Render in passes and stop after the first whose estimated relMSE is
+    /// at most this (`--target-error`).
+    pub target_error: Option<f64>,
+    /// Render in passes and stop after the first that ends this many
+    /// seconds or more after the render started (`--time-limit`).
+    pub time_limit: Option<f64>,
 }
 
 /// Progress of a running render.
@@ -81,6 +89,10 @@ pub struct RenderSummary {
     pub scene_name: String,
     /// What was ignored in the scene.
     pub warnings: Vec<Warning>,
+    /// A render in passes: what each pass left.
+    pub passes: Vec<PassEnd>,
+    /// Why a render in passes stopped.
+    pub stopped: Option<PassStop>,
 }
 
 /// The one worker of an embedded render.
@@ -108,7 +120,7 @@ struct LocalOutbox<R> {
 
 impl<R> Outbox for LocalOutbox<R>
 where
-    R: Fn(TileId) -> (FilmTile, RayStats) + Send + Sync + 'static,
+    R: Fn(TileId, Option<SampleRange>) -> (FilmTile, RayStats) + Send + Sync + 'static,
 {
     fn assign(&mut self, _worker: WorkerId, a: Assignment) {
         self.outstanding += 1;
@@ -118,7 +130,7 @@ where
             let outcome = if cancelled.load(Ordering::Relaxed) {
                 Err("the job was cancelled".to_string())
             } else {
-                catch_unwind(AssertUnwindSafe(|| render(a.tile))).map_err(|p| {
+                catch_unwind(AssertUnwindSafe(|| render(a.tile, a.samples))).map_err(|p| {
                     let msg = p
                         .downcast_ref::<&str>()
                         .map(|s| s.to_string())
@@ -143,21 +155,34 @@ where
     }
 }
 
+/// One job for [`run_job`]: its film, samples per pixel (the cap of a
+/// render in passes), name and passes.
+#[derive(Clone, Debug)]
+pub struct LocalJob {
+    /// The film layout.
+    pub geometry: FilmGeometry,
+    /// Samples per pixel.
+    pub spp: u32,
+    /// A name for logs.
+    pub name: String,
+    /// Its passes, when it renders in passes.
+    pub passes: Option<PassPlan>,
+}
+
 /// Runs one job through the scheduler on `threads` render threads (0 = one
-/// per core): `render` renders a tile of `geometry` at `spp` samples per
-/// pixel (a [`Renderer`]'s `render_tile` in a real render). `progress` is
-/// called as tiles merge.
+/// per core): `render` renders a tile of the job's film at its samples per
+/// pixel, or the samples of one pass (a [`Renderer`]'s `render_tile` or
+/// `render_tile_samples` in a real render). `progress` is called as tiles
+/// merge.
 pub fn run_job<R>(
     render: R,
-    geometry: FilmGeometry,
-    spp: u32,
-    name: &str,
+    job: LocalJob,
     threads: usize,
     mut display: Option<&mut Display>,
     mut progress: impl FnMut(&Progress),
 ) -> Result<Arc<FinishedJob>, Error>
 where
-    R: Fn(TileId) -> (FilmTile, RayStats) + Send + Sync + 'static,
+    R: Fn(TileId, Option<SampleRange>) -> (FilmTile, RayStats) + Send + Sync + 'static,
 {
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(threads)
@@ -165,16 +190,17 @@ where
         .build()?;
     let threads = pool.current_num_threads();
     let spec = JobSpec {
-        name: name.to_string(),
+        name: job.name,
         priority: 0,
         scene_hash: Vec::new(),
         spp_override: 0,
-        spp,
-        geometry,
+        spp: job.spp,
+        geometry: job.geometry,
         owner: Default::default(),
         detach: false,
         blobs: Vec::new(),
         shot: None,
+        passes: job.passes,
     };
     let (results, inbox) = mpsc::channel();
     let mut out = LocalOutbox {
@@ -274,7 +300,17 @@ pub fn render_parsed(
     let output = opts.output.clone().unwrap_or_else(|| PathBuf::from(&renderer.film.filename));
     let features = renderer.features.clone();
     let t = Instant::now();
-    let (geometry, spp) = (renderer.film.clone(), renderer.samples_per_pixel());
+    let (mut geometry, spp) = (renderer.film.clone(), renderer.samples_per_pixel());
+    let passes = PassPlan::for_job(
+        renderer.sampler.kind(),
+        spp,
+        opts.target_error,
+        opts.time_limit,
+        &mut geometry,
+    );
+    if let Some(p) = &passes {
+        p.check().map_err(Error::Usage)?;
+    }
     let mut display = opts.display_server.as_deref().and_then(|address| {
         let b = geometry.cropped_pixel_bounds;
         Display::connect(address, &name, b.width(), b.height())
@@ -284,8 +320,12 @@ pub fn render_parsed(
             })
             .ok()
     });
-    let render = move |tile| renderer.render_tile(tile);
-    let finished = run_job(render, geometry, spp, &name, opts.threads, display.as_mut(), progress)?;
+    let render = move |tile, samples: Option<SampleRange>| match samples {
+        Some(r) => renderer.render_tile_samples(tile, r),
+        None => renderer.render_tile(tile),
+    };
+    let job = LocalJob { geometry, spp, name: name.clone(), passes };
+    let finished = run_job(render, job, opts.threads, display.as_mut(), progress)?;
     let render_seconds = t.elapsed().as_secs_f64();
     let finished = Arc::try_unwrap(finished).unwrap_or_else(|f| (*f).clone());
     Ok(RenderSummary {
@@ -299,6 +339,8 @@ pub fn render_parsed(
         features,
         scene_name: name,
         warnings,
+        passes: finished.passes,
+        stopped: finished.stopped,
     })
 }
 
@@ -361,7 +403,8 @@ mod tests {
     fn run(
         render: impl Fn(TileId) -> (FilmTile, RayStats) + Send + Sync + 'static,
     ) -> Result<Arc<FinishedJob>, Error> {
-        run_job(render, geometry(), 4, "test", 2, None, |_| {})
+        let job = LocalJob { geometry: geometry(), spp: 4, name: "test".into(), passes: None };
+        run_job(move |id, _| render(id), job, 2, None, |_| {})
     }
 
     #[test]

@@ -29,6 +29,8 @@ pub mod embedded;
 pub mod error;
 /// A shot's frames: their inputs, numbers and output names.
 pub mod frames;
+/// What a render in passes prints.
+pub mod passes;
 /// The terminal progress bar.
 pub mod progress;
 /// The async runtime and shutdown signals.

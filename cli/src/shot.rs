@@ -193,6 +193,8 @@ fn summary(p: Pending, image: JobImage) -> FrameEnd {
         features: p.features,
         scene_name: p.scene_name,
         warnings: p.warnings,
+        passes: image.passes,
+        stopped: image.stopped,
     };
     FrameEnd::Done(Box::new(summary), p.out)
 }

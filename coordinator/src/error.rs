@@ -58,6 +58,10 @@ pub enum Error {
     /// A job whose film has no pixels.
     #[error("the film has no pixels")]
     EmptyFilm,
+    /// A job's passes ask for something that cannot be (a target error
+    /// that is not a number, a negative time limit).
+    #[error("passes: {0}")]
+    BadPasses(String),
     /// A frame names a shot that is not the client's, or is not a shot.
     #[error("{0}")]
     BadShot(String),
@@ -119,6 +123,7 @@ impl From<Error> for Status {
             | Error::BadManifest(_)
             | Error::EmptyFilm
             | Error::BadShot(_)
+            | Error::BadPasses(_)
             | Error::Film(_)
             | Error::UnknownTile(..)
             | Error::WrongDimensions(_)

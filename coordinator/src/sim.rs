@@ -231,6 +231,7 @@ impl Sim {
             detach: true,
             blobs: Vec::new(),
             shot: None,
+            passes: None,
         };
         self.call(|s, out, _| {
             s.submit(spec, out);

@@ -10,7 +10,7 @@ use crate::filters::{self, Filter};
 use crate::integrator::{RayStats, Whitted};
 use crate::sampler::{self, CameraDims, Sampler};
 use crate::world::World;
-use farm_common::film::{FilmGeometry, FilmTile};
+use farm_common::film::{FilmGeometry, FilmTile, SampleRange};
 use farm_common::geometry::{
     AnimatedTransform, Bounds2i, DMat4, DVec3, Point2i, RayDifferential, Transform, Vec2,
 };
@@ -183,16 +183,42 @@ impl Renderer {
 
     /// Renders one tile: its film tile of weighted sums and its ray counts.
     pub fn render_tile(&self, id: TileId) -> (FilmTile, RayStats) {
+        self.render_samples(id, None)
+    }
+
+    /// Renders samples `range` of every pixel of one tile: one pass of a
+    /// render in passes (see `farm_common::film::PassPlan`). Halton and
+    /// Sobol' take samples `range.first..range.end` of each pixel's
+    /// sequence; the samplers with state take a set of `range.len()`
+    /// samples drawn on a stream of the tile's and the range's own. The
+    /// range must pass [`SampleRange::check`] against
+    /// [`Renderer::samples_per_pixel`].
+    pub fn render_tile_samples(&self, id: TileId, range: SampleRange) -> (FilmTile, RayStats) {
+        self.render_samples(id, Some(range))
+    }
+
+    fn render_samples(&self, id: TileId, range: Option<SampleRange>) -> (FilmTile, RayStats) {
         let mut stats = RayStats::default();
-        let mut sampler = self.sampler.clone_with_seed(self.film.tile_seed(id));
+        let seed = self.film.tile_seed(id);
+        let stateless = self.sampler.is_stateless();
+        let mut sampler = match range {
+            // Each pass of a sampler with state draws on a stream of its own.
+            Some(r) if !stateless && r.first > 0 => {
+                self.sampler.with_spp(r.len()).clone_with_seed(seed ^ (u64::from(r.first) << 32))
+            }
+            Some(r) if !stateless => self.sampler.with_spp(r.len()).clone_with_seed(seed),
+            _ => self.sampler.clone_with_seed(seed),
+        };
         let bounds = self.film.tile_sample_bounds(id);
         // Outside the film's sample bounds (a crop's edge tiles) only a
         // sampler with state needs the samples, to reach the state it has
         // for the samples inside.
-        let stateless = sampler.is_stateless();
         let mut tile = FilmTile::new(self.film.tile_pixel_bounds(id));
-        let diff_scale = 1.0 / (sampler.samples_per_pixel() as f32).sqrt();
+        // Differentials are scaled for the job's samples per pixel (a pass
+        // render's cap), as a one-shot render of the job would be.
+        let diff_scale = 1.0 / (self.sampler.samples_per_pixel() as f32).sqrt();
         let halves = sampler.halves();
+        let (first, end) = range.map_or((0, u32::MAX), |r| (r.first, r.end));
         for pixel in bounds.iter() {
             if stateless && !self.film.sample_bounds.contains(pixel) {
                 continue;
@@ -203,11 +229,19 @@ impl Renderer {
             if !self.pixel_bounds.contains(pixel) {
                 continue;
             }
-            let mut index = 0u32;
+            // A stateless sampler jumps to the range's first sample; one
+            // with state made for the range starts its own set at 0.
+            if stateless && first > 0 {
+                sampler.set_sample_number(u64::from(first));
+            }
+            let mut index = first;
             loop {
                 let cs = sampler.camera_sample_for(pixel, self.camera_dims);
                 let offset = cs.p_film - Vec2::new(pixel.x as f32, pixel.y as f32);
-                let second_half = halves.is_second(index, offset);
+                let second_half = match range {
+                    Some(r) => index >= r.second_from,
+                    None => halves.is_second(index, offset),
+                };
                 let (weight, ray) = if self.differentials {
                     let (weight, mut ray) = self.camera.generate_ray_differential(&cs);
                     ray.scale_differentials(diff_scale);
@@ -234,7 +268,7 @@ impl Renderer {
                 }
                 self.add_sample(&mut tile, cs.p_film, l, weight, second_half);
                 index += 1;
-                if !sampler.start_next_sample() {
+                if index >= end || !sampler.start_next_sample() {
                     break;
                 }
             }

@@ -2,6 +2,7 @@
 
 use crate::pool::CpuPool;
 use crate::renderer_cache::RendererCache;
+use farm_common::film::SampleRange;
 use farm_common::ids::TileId;
 use farm_proto::connect::Client;
 use farm_proto::convert::Hash;
@@ -61,6 +62,15 @@ pub async fn render_tile(
         return failure(message, false);
     }
 
+    let samples = a.samples.map(|r| SampleRange {
+        first: r.first_sample,
+        end: r.end_sample,
+        second_from: r.second_from,
+    });
+    if let Some(Err(why)) = samples.map(|r| r.check(renderer.samples_per_pixel())) {
+        return failure(why, false);
+    }
+
     let flag = cancelled.clone();
     let rendered = pool
         .run(move || {
@@ -69,7 +79,10 @@ pub async fn render_tile(
                 return None;
             }
             let started = std::time::Instant::now();
-            let (film_tile, stats) = renderer.render_tile(TileId(tile));
+            let (film_tile, stats) = match samples {
+                Some(r) => renderer.render_tile_samples(TileId(tile), r),
+                None => renderer.render_tile(TileId(tile)),
+            };
             Some((v1::FilmTile::from(&film_tile), v1::RayStats::from(&stats), started.elapsed()))
         })
         .await;

@@ -396,8 +396,14 @@ mod tests {
         tile: u32,
         scene_hash: &[u8],
     ) -> Result<CoordinatorMessage, tonic::Status> {
-        let a =
-            TileAssignment { job_id, tile, attempt: 0, scene_hash: scene_hash.to_vec(), spp: 0 };
+        let a = TileAssignment {
+            job_id,
+            tile,
+            attempt: 0,
+            scene_hash: scene_hash.to_vec(),
+            spp: 0,
+            samples: None,
+        };
         Ok(CoordinatorMessage { kind: Some(FromCoordinator::Assign(a)) })
     }
 

@@ -3,6 +3,7 @@
 
 use crate::embedded::{self, SubmitOptions};
 use crate::error::Error;
+use farm_common::film::DEFAULT_PASS_CAP;
 use std::path::PathBuf;
 use std::process::ExitCode;
 
@@ -38,6 +39,16 @@ pub struct SubmitArgs {
     /// Samples per pixel, overriding the scene's sampler.
     #[arg(long, value_parser = clap::value_parser!(u32).range(1..))]
     pub spp: Option<u32>,
+    /// Render in passes (4 samples per pixel, then twice as many each
+    /// pass, up to --spp or else 1024) and stop after the first pass whose
+    /// estimated relMSE is at most E. The passes depend only on the scene
+    /// and E, never on the farm.
+    #[arg(long, value_name = "E", value_parser = parse_target_error)]
+    pub target_error: Option<f64>,
+    /// Render in passes, as --target-error does, and stop after the first
+    /// pass that ends S or more after the render started (90s, 10m, 2h).
+    #[arg(long, value_name = "S", value_parser = super::coordinator::parse_duration)]
+    pub time_limit: Option<std::time::Duration>,
     /// Render threads (default: one per core).
     #[arg(long, default_value_t = 0, visible_alias = "nthreads")]
     pub threads: usize,
@@ -238,11 +249,26 @@ async fn run_remote(args: &SubmitArgs, scene: Parsed) -> ExitCode {
     }
 }
 
+/// A relative error to stop at: a finite number ≥ 0.
+fn parse_target_error(s: &str) -> Result<f64, String> {
+    match s.trim().parse::<f64>() {
+        Ok(e) if e.is_finite() && e >= 0.0 => Ok(e),
+        _ => Err(format!("{s:?} is not a relative error such as 1e-3")),
+    }
+}
+
+/// Samples per pixel to render: --spp, or for a render in passes without
+/// it, [`DEFAULT_PASS_CAP`] (the most its passes may reach).
+pub(super) fn spp(args: &SubmitArgs) -> Option<u32> {
+    let passes = args.target_error.is_some() || args.time_limit.is_some();
+    args.spp.or(passes.then_some(DEFAULT_PASS_CAP))
+}
+
 /// How the command line asks for a render on the farm.
 pub(super) fn remote_options(args: &SubmitArgs) -> crate::client::RemoteOptions {
     crate::client::RemoteOptions {
         output: args.output.clone(),
-        spp: args.spp,
+        spp: spp(args),
         priority: args.priority,
         allow_assets_outside: args.allow_assets_outside,
         detach: args.detach,
@@ -250,6 +276,8 @@ pub(super) fn remote_options(args: &SubmitArgs) -> crate::client::RemoteOptions 
         overrides: overrides(args),
         display_server: args.display_server.clone(),
         quiet: args.quiet,
+        target_error: args.target_error,
+        time_limit: args.time_limit.map(|d| d.as_secs_f64()),
     }
 }
 
@@ -272,12 +300,14 @@ pub(super) fn run_embedded_to(
 ) -> ExitCode {
     let opts = SubmitOptions {
         output,
-        spp: args.spp,
+        spp: spp(args),
         threads: args.threads,
         all_paths: false,
         limits: (&args.limits).into(),
         overrides: overrides(args),
         display_server: args.display_server.clone(),
+        target_error: args.target_error,
+        time_limit: args.time_limit.map(|d| d.as_secs_f64()),
     };
     let bar = crate::progress::progress_bar(args.quiet);
     let started = std::time::Instant::now();
@@ -358,6 +388,9 @@ pub fn finish(
             s.total_rays() as f64 / 1e6,
             s.total_rays() as f64 / secs / 1e6,
         );
+        for line in crate::passes::describe(&summary.passes, summary.stopped, args.target_error) {
+            say!("{line}");
+        }
     }
     ExitCode::SUCCESS
 }

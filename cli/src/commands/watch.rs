@@ -67,6 +67,8 @@ pub async fn run(args: WatchArgs) -> ExitCode {
         features: Features::default(),
         scene_name: format!("job {job}"),
         warnings: Vec::new(),
+        passes: done.passes,
+        stopped: done.stopped,
     };
     if let Err(e) = embedded::write(&summary) {
         return super::submit::fail(&e);

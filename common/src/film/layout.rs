@@ -28,6 +28,13 @@ pub enum SamplerKind {
 }
 
 impl SamplerKind {
+    /// Whether a pixel's samples depend only on the pixel and their index
+    /// (Halton and Sobol'), so a render can stop and later continue each
+    /// pixel's sequence; the others draw from a generator per tile.
+    pub fn continues_sequence(self) -> bool {
+        matches!(self, SamplerKind::Halton | SamplerKind::Sobol)
+    }
+
     /// The kind a `Sampler` directive names, and whether the name was known.
     pub fn named(name: &str) -> (SamplerKind, bool) {
         match name {

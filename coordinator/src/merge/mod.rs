@@ -113,6 +113,23 @@ impl Film {
         self.next == self.geometry.tile_count()
     }
 
+    /// Starts the next pass of a render in passes, once every tile of this
+    /// one is merged: the sums go on, the second half starts afresh (the
+    /// next pass's samples are the second half of the render it
+    /// completes), and every tile is awaited again. Watchers are sent each
+    /// region again as the pass's tiles merge.
+    pub fn next_pass(&mut self) {
+        debug_assert!(self.is_complete() && self.pending.is_empty());
+        self.next = 0;
+        self.pending.clear();
+        self.sums.second.fill([0.0; 4]);
+        let map = std::mem::take(&mut self.running.map);
+        self.running = Running::default();
+        if !map.is_empty() {
+            self.running.map = vec![0.0; map.len()];
+        }
+    }
+
     /// Takes one tile result; validates it, ignores duplicates, and merges
     /// every tile whose turn has come.
     pub fn accept(&mut self, id: TileId, tile: FilmTile) -> Result<Accepted, Error> {

@@ -148,6 +148,8 @@ impl Scheduler {
             *a += 1;
             *a - 1
         };
+        let retry = !speculative && !j.handed.insert(tile);
+        j.retries += u32::from(retry);
         if speculative {
             j.spares.insert(tile, (wid, attempt));
             j.speculated += 1;
@@ -163,6 +165,8 @@ impl Scheduler {
             scene_hash: j.spec.scene_hash.clone(),
             spp: j.spec.spp_override,
             speculative,
+            retry,
+            samples: j.samples(),
         };
         self.workers.get_mut(&wid).expect("worker").in_flight.insert((job, tile));
         self.refresh_ready(wid);

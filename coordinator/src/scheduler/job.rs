@@ -3,10 +3,10 @@
 
 use super::{FinishedJob, JobUpdate};
 use crate::merge::Film;
-use farm_common::film::FilmGeometry;
+use farm_common::film::{FilmGeometry, PassEnd, PassPlan, PassStop, SampleRange};
 use farm_common::ids::{JobId, WorkerId};
 use farm_common::stats::RayStats;
-use std::collections::{HashMap, VecDeque};
+use std::collections::{HashMap, HashSet, VecDeque};
 use std::time::Instant;
 
 /// Where a job is in its life.
@@ -67,6 +67,10 @@ pub struct JobSpec {
     /// journal written before shots existed still decodes).
     #[serde(skip)]
     pub shot: Option<ShotFrame>,
+    /// Its passes, when it renders in passes (`--target-error`,
+    /// `--time-limit`; journalled in a table of its own, as `shot`).
+    #[serde(skip)]
+    pub passes: Option<PassPlan>,
 }
 
 /// A job's place in a shot (`farm submit` of several scenes).
@@ -119,6 +123,17 @@ pub(super) struct Job {
     pub(super) ended_at: Option<i64>,
     /// A finished job's estimate of its own relMSE.
     pub(super) rel_mse: Option<f64>,
+    /// The pass under way (0 for a job without passes).
+    pub(super) pass: u32,
+    /// What each pass done so far left.
+    pub(super) pass_ends: Vec<PassEnd>,
+    /// Why its passes stopped.
+    pub(super) stopped: Option<PassStop>,
+    /// Tiles handed out in the pass under way: a tile's next hand-out
+    /// (speculation aside) is a retry.
+    pub(super) handed: HashSet<u32>,
+    /// Retries so far.
+    pub(super) retries: u32,
 }
 
 impl Job {
@@ -144,11 +159,27 @@ impl Job {
             finished: None,
             ended_at: None,
             rel_mse: None,
+            pass: 0,
+            pass_ends: Vec::new(),
+            stopped: None,
+            handed: HashSet::new(),
+            retries: 0,
         }
     }
 }
 
 impl Job {
+    /// The samples each pixel gets in the pass under way, when the job
+    /// renders in passes.
+    pub(super) fn samples(&self) -> Option<SampleRange> {
+        self.spec.passes.as_ref().map(|p| p.range(self.pass as usize))
+    }
+
+    /// Whether the job has a pass after the one under way.
+    pub(super) fn has_pass_after(&self) -> bool {
+        self.spec.passes.as_ref().is_some_and(|p| self.pass as usize + 1 < p.totals.len())
+    }
+
     /// Forgets every hand-out of `tile`; returns their workers.
     pub(super) fn drop_holders(&mut self, tile: u32) -> Vec<WorkerId> {
         let spare = self.spares.remove(&tile);

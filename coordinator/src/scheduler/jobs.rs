@@ -5,7 +5,7 @@ use super::job::{Job, JobSpec, JobState, Owner, Snapshot};
 use super::{FinishedJob, JobUpdate, Outbox, Record, Scheduler};
 use crate::merge::{Accepted, Film};
 use farm_common::film::FilmTile;
-use farm_common::ids::{JobId, TileAttempt, WorkerId};
+use farm_common::ids::{JobId, TileAttempt, TileId, WorkerId};
 use farm_common::stats::RayStats;
 use std::collections::HashSet;
 use std::time::Duration;
@@ -109,7 +109,8 @@ impl Scheduler {
         let film = j.film.as_mut().expect("active jobs have a film");
         match film.check(tile, &film_tile) {
             Ok(Accepted::New) => {
-                out.record(Record::Merged { job, tile, film_tile: &film_tile, stats: &stats });
+                let key = TileId(j.pass.saturating_mul(j.spec.geometry.tile_count()) + tile.0);
+                out.record(Record::Merged { job, tile: key, film_tile: &film_tile, stats: &stats });
                 film.insert(tile, film_tile);
                 let complete = film.is_complete();
                 let others = j.drop_holders(tile.0);
@@ -142,7 +143,7 @@ impl Scheduler {
                     self.release(w, job, tile.0);
                 }
                 if complete {
-                    self.finish(job, out);
+                    self.end_pass(job, out);
                 }
             }
             Ok(Accepted::Duplicate) => {
@@ -339,9 +340,11 @@ impl Scheduler {
         let finished = std::sync::Arc::new(FinishedJob {
             image: film.image(),
             error: film.error_estimate(),
-            spp: j.spec.spp,
+            spp: j.pass_ends.last().map_or(j.spec.spp, |p| p.spp),
             render_seconds,
             stats: j.stats,
+            passes: j.pass_ends.clone(),
+            stopped: j.stopped,
         });
         j.state = JobState::Done;
         j.rel_mse = finished.error.as_ref().map(|e| e.rel_mse);

@@ -12,6 +12,9 @@ mod job;
 mod jobs;
 mod outbox;
 #[cfg(test)]
+mod pass_tests;
+mod passes;
+#[cfg(test)]
 mod queue_tests;
 mod restore;
 #[cfg(test)]

@@ -3,7 +3,7 @@
 
 use super::job::{JobSpec, JobState};
 use crate::estimate::ErrorEstimate;
-use farm_common::film::FilmTile;
+use farm_common::film::{FilmTile, PassEnd, PassStop, SampleRange};
 use farm_common::ids::{JobId, TileAttempt, TileId, WorkerId};
 use farm_common::image::RgbImage;
 use farm_common::stats::RayStats;
@@ -23,6 +23,11 @@ pub struct Assignment {
     pub spp: u32,
     /// A second hand-out of a tile still out (speculation).
     pub speculative: bool,
+    /// A hand-out of a tile after its first in this pass (speculation aside).
+    pub retry: bool,
+    /// The samples of each pixel to take, when the job renders in passes;
+    /// `None`: all of them.
+    pub samples: Option<SampleRange>,
 }
 
 impl Assignment {
@@ -65,6 +70,10 @@ pub struct FinishedJob {
     pub stats: RayStats,
     /// The render's estimate of its own error.
     pub error: Option<ErrorEstimate>,
+    /// A render in passes: what each pass left, and why it stopped.
+    pub passes: Vec<PassEnd>,
+    /// Why a render in passes stopped where it did.
+    pub stopped: Option<PassStop>,
 }
 
 /// A change the scheduler asks to be made durable, so that a restarted
@@ -91,7 +100,8 @@ pub enum Record<'a> {
     Merged {
         /// The job.
         job: JobId,
-        /// The tile.
+        /// The tile's index in the job's passes: pass × tiles + tile (the
+        /// tile itself for a job without passes).
         tile: TileId,
         /// Its sums.
         film_tile: &'a FilmTile,

@@ -4,6 +4,7 @@
 use super::job::{Job, JobState};
 use super::{Outbox, Scheduler};
 use crate::merge::{Accepted, Film};
+use farm_common::film::PassEnd;
 use farm_common::ids::{JobId, TileId};
 use std::time::Duration;
 use tracing::{info, warn};
@@ -39,7 +40,29 @@ impl Scheduler {
         }
         if job.state.is_active() {
             let mut film = Film::new(job.spec.geometry.clone());
-            for (tile, ft, stats) in saved.tiles {
+            for (key, ft, stats) in saved.tiles {
+                // A job in passes journals pass × tiles + tile; a pass's
+                // tiles come only once the pass before is merged whole.
+                let (pass, tile) = (key / total.max(1), key % total.max(1));
+                while pass > job.pass && film.is_complete() && job.has_pass_after() {
+                    job.pass_ends.push(PassEnd {
+                        spp: job.samples().map_or(job.spec.spp, |r| r.end),
+                        estimate: film.running_estimate(),
+                        seconds: 0.0,
+                    });
+                    film.next_pass();
+                    job.pass += 1;
+                    job.done_tiles = 0;
+                }
+                if pass != job.pass {
+                    warn!(
+                        job = id.0,
+                        pass,
+                        tile,
+                        "a journalled tile is not of the pass under way: it renders again"
+                    );
+                    continue;
+                }
                 match film.check(TileId(tile), &ft) {
                     Ok(Accepted::New) => {
                         film.insert(TileId(tile), ft);
@@ -53,6 +76,12 @@ impl Scheduler {
                 }
             }
             job.pending = (0..total).filter(|t| !film.has(TileId(*t))).collect();
+            // A tile handed out more often than there were passes before
+            // this one was handed out in it; its next hand-out is a retry.
+            let before = job.pass;
+            job.handed =
+                job.attempts.iter().filter(|(_, a)| **a > before).map(|(t, _)| *t).collect();
+            job.retries = job.attempts.values().map(|a| a.saturating_sub(before + 1)).sum();
             job.film = Some(film);
             if job.state == JobState::Running {
                 job.started = Some(now);
@@ -63,7 +92,7 @@ impl Scheduler {
         let complete = job.film.as_ref().is_some_and(|f| f.is_complete());
         self.jobs.insert(id, job);
         if complete {
-            self.finish(id, out);
+            self.end_pass(id, out);
         }
         self.fill(out);
     }

@@ -15,7 +15,7 @@ pub(super) struct Recorder {
     assigned: Vec<(WorkerId, Assignment)>,
     pub(super) cancelled: Vec<(WorkerId, JobId)>,
     disconnected: Vec<WorkerId>,
-    updates: Vec<(JobId, JobUpdate)>,
+    pub(super) updates: Vec<(JobId, JobUpdate)>,
 }
 
 impl Outbox for Recorder {
@@ -37,7 +37,7 @@ impl Recorder {
     pub(super) fn take(&mut self) -> Vec<(WorkerId, Assignment)> {
         std::mem::take(&mut self.assigned)
     }
-    fn image(&self, job: JobId) -> Option<RgbImage> {
+    pub(super) fn image(&self, job: JobId) -> Option<RgbImage> {
         self.updates.iter().find_map(|(j, u)| match u {
             JobUpdate::Finished(f) if *j == job => Some(f.image.clone()),
             _ => None,
@@ -76,6 +76,7 @@ pub(super) fn spec(priority: i32) -> JobSpec {
         detach: false,
         blobs: Vec::new(),
         shot: None,
+        passes: None,
     }
 }
 
@@ -314,9 +315,9 @@ fn impossible_sums_are_a_retryable_failure_of_the_worker_that_sent_them() {
 }
 
 /// A recorder whose changes also go to a journal, as the server's do.
-struct Durable {
-    rec: Recorder,
-    journal: crate::state::Journal,
+pub(super) struct Durable {
+    pub(super) rec: Recorder,
+    pub(super) journal: crate::state::Journal,
 }
 
 impl Outbox for Durable {

@@ -194,12 +194,7 @@ fn job_view(j: &Job, now: Instant, rel_mse: &mut impl FnMut(JobId) -> Option<f64
         rel_mse: estimate,
         workers: holders.len() as u32,
         attempts: j.attempts.values().sum(),
-        retries: j
-            .attempts
-            .values()
-            .map(|a| a.saturating_sub(1))
-            .sum::<u32>()
-            .saturating_sub(j.speculated),
+        retries: j.retries,
         speculated: j.speculated,
     }
 }

@@ -50,8 +50,8 @@ pub enum Event {
     },
     /// A client submitted a job.
     Submit {
-        /// The job.
-        spec: JobSpec,
+        /// The job (boxed: it is the largest event by far).
+        spec: Box<JobSpec>,
         /// Where to send its id, or why it was refused.
         reply: oneshot::Sender<Result<JobId, crate::error::Error>>,
     },
@@ -197,7 +197,7 @@ pub async fn run(mut rx: mpsc::UnboundedReceiver<Event>, config: ServerConfig, s
             }
             Event::Submit { spec, reply } => {
                 let id = match sched.check_shot(&spec) {
-                    Ok(()) => Ok(sched.submit(spec, &mut out)),
+                    Ok(()) => Ok(sched.submit(*spec, &mut out)),
                     Err(why) => Err(crate::error::Error::BadShot(why)),
                 };
                 let _ = reply.send(id);

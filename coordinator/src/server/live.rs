@@ -210,6 +210,8 @@ mod tests {
             spp: 1,
             render_seconds: 1.0,
             stats: Default::default(),
+            passes: Vec::new(),
+            stopped: None,
         })
     }
 

@@ -65,7 +65,13 @@ pub(crate) fn job_events(update: &JobUpdate) -> Vec<v1::JobEvent> {
             }))
         }
         JobUpdate::Finished(f) => {
-            let facts = ImageFacts { spp: f.spp, render_seconds: f.render_seconds, stats: f.stats };
+            let facts = ImageFacts {
+                spp: f.spp,
+                render_seconds: f.render_seconds,
+                stats: f.stats,
+                passes: f.passes.clone(),
+                stopped: f.stopped,
+            };
             let error = f.error.as_ref().map(|e| (e.per_pixel.as_slice(), e.rel_mse));
             image_chunks(&f.image, error, &facts)
                 .into_iter()
@@ -95,7 +101,7 @@ impl Outbox for GrpcOutbox {
         self.metrics.tiles_dispatched.inc();
         if a.speculative {
             self.metrics.tiles_speculated.inc();
-        } else if a.attempt > 0 {
+        } else if a.retry {
             self.metrics.tiles_retried.inc();
         }
         self.handed.insert(a.key(), Instant::now());
@@ -106,6 +112,11 @@ impl Outbox for GrpcOutbox {
                 attempt: a.attempt,
                 scene_hash: a.scene_hash,
                 spp: a.spp,
+                samples: a.samples.map(|r| v1::SampleRange {
+                    first_sample: r.first,
+                    end_sample: r.end,
+                    second_from: r.second_from,
+                }),
             })),
         };
         if let Some(tx) = self.workers.get(&worker) {

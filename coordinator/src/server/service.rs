@@ -345,7 +345,7 @@ impl Coordinator for CoordinatorService {
         let owner = Owner { id: by.id, name: by.name };
         let spec = super::submission::job_spec(&self.blobs, &self.limits, r, owner).await?;
         let (reply, rx) = oneshot::channel();
-        self.send(Event::Submit { spec, reply })?;
+        self.send(Event::Submit { spec: Box::new(spec), reply })?;
         let id = answer(rx).await??;
         Ok(Response::new(v1::SubmitJobResponse { job_id: id.0 }))
     }

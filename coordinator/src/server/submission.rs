@@ -6,7 +6,7 @@
 use crate::error::Error;
 use crate::scheduler::{JobSpec, Owner, ShotFrame};
 use crate::state::BlobStore;
-use farm_common::film::Limits;
+use farm_common::film::{Limits, PassPlan};
 use farm_common::ids::JobId;
 use farm_proto::convert::{decode_manifest, is_shape_key, Hash};
 use farm_proto::v1;
@@ -67,9 +67,24 @@ pub(super) async fn job_spec(
         .inspect_err(|e| warn!(error = %e, "job refused"))
         .map_err(Error::from)?;
     let spp = layout.spp();
-    let geometry = layout.geometry;
+    let mut geometry = layout.geometry;
     if geometry.cropped_pixel_bounds.is_empty() {
         return Err(Error::EmptyFilm.into());
+    }
+    let passes =
+        PassPlan::for_job(layout.sampler, spp, r.target_error, r.time_limit, &mut geometry);
+    if let Some(p) = &passes {
+        p.check().map_err(Error::BadPasses)?;
+        // The journal keys a tile of a job in passes by pass × tiles + tile.
+        let keys = p.totals.len() as u64 * u64::from(geometry.tile_count());
+        if keys > u64::from(u32::MAX) {
+            let why = format!(
+                "{} passes of {} tiles are too many",
+                p.totals.len(),
+                geometry.tile_count()
+            );
+            return Err(Error::BadPasses(why).into());
+        }
     }
     Ok(JobSpec {
         name: if r.name.is_empty() { desc.name.clone() } else { r.name },
@@ -82,6 +97,7 @@ pub(super) async fn job_spec(
         detach: r.detach,
         blobs: needed,
         shot: shot_frame(r.shot.as_ref())?,
+        passes,
     })
 }
 

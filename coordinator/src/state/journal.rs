@@ -11,7 +11,7 @@
 use super::StateError;
 use crate::scheduler::{JobSpec, JobState, JobUpdate, Record, ShotFrame};
 use crate::server::events::job_events;
-use farm_common::film::FilmTile;
+use farm_common::film::{FilmTile, PassPlan};
 use farm_common::ids::JobId;
 use farm_common::stats::RayStats;
 use farm_proto::convert::Hash;
@@ -54,6 +54,7 @@ CREATE INDEX IF NOT EXISTS job_blobs_hash ON job_blobs (hash);
 CREATE TABLE IF NOT EXISTS frames (
     job INTEGER PRIMARY KEY, shot INTEGER NOT NULL, frame INTEGER NOT NULL, frames INTEGER NOT NULL
 );
+CREATE TABLE IF NOT EXISTS passes (job INTEGER PRIMARY KEY, plan BLOB NOT NULL);
 CREATE TABLE IF NOT EXISTS blobs (
     hash BLOB PRIMARY KEY, size INTEGER NOT NULL, owner TEXT NOT NULL, stored_at INTEGER NOT NULL
 ) WITHOUT ROWID;
@@ -327,6 +328,12 @@ fn apply(
             for h in blobs {
                 st.execute(params![id as i64, h.as_slice()])?;
             }
+            if let Some(p) = &spec.passes {
+                tx.execute(
+                    "INSERT OR REPLACE INTO passes (job, plan) VALUES (?1, ?2)",
+                    params![id as i64, postcard::to_stdvec(p).unwrap_or_default()],
+                )?;
+            }
             if let Some(f) = spec.shot {
                 tx.execute(
                     "INSERT OR REPLACE INTO frames (job, shot, frame, frames) VALUES (?1, ?2, ?3, ?4)",
@@ -367,7 +374,7 @@ fn apply(
         Command::Purge { jobs, unreferenced_before, reply } => {
             for job in jobs {
                 let job = job as i64;
-                for table in ["tiles", "attempts", "images", "job_blobs", "frames"] {
+                for table in ["tiles", "attempts", "images", "job_blobs", "frames", "passes"] {
                     tx.execute(&format!("DELETE FROM {table} WHERE job = ?1"), params![job])?;
                 }
                 tx.execute("DELETE FROM jobs WHERE id = ?1", params![job])?;
@@ -442,6 +449,15 @@ fn restore(conn: &Connection) -> rusqlite::Result<Restored> {
                 })
             })
             .optional()?;
+        let mut p = conn.prepare_cached("SELECT plan FROM passes WHERE job = ?1")?;
+        let plan = p.query_row(params![id], |r| r.get::<_, Vec<u8>>(0)).optional()?;
+        if let Some(bytes) = plan {
+            let Ok(plan) = postcard::from_bytes::<PassPlan>(&bytes) else {
+                error!(job = id, "a job's passes in the journal do not decode: skipped");
+                continue;
+            };
+            spec.passes = Some(plan);
+        }
         let ending = match state.as_str() {
             "done" => Some(Ending::Done),
             "failed" => Some(Ending::Failed(reason.unwrap_or_default())),
@@ -514,6 +530,7 @@ mod tests {
             detach: false,
             blobs,
             shot: None,
+            passes: None,
         }
     }
 
@@ -554,18 +571,21 @@ mod tests {
         assert_eq!(purge(&j, vec![]).await, Vec::<Hash>::new());
     }
 
-    /// A frame's place in its shot is journalled beside its job, comes
-    /// back when the coordinator restarts, and goes when the job is purged.
+    /// A frame's place in its shot and a job's passes are journalled
+    /// beside its job, come back when the coordinator restarts, and go
+    /// when the job is purged.
     #[tokio::test]
-    async fn a_frames_shot_survives_a_restart() {
+    async fn a_frames_shot_and_a_jobs_passes_survive_a_restart() {
         let dir = std::env::temp_dir().join(format!("farm-journal-shot-{}", std::process::id()));
         std::fs::create_dir_all(&dir).unwrap();
         let db = dir.join("state.db");
         let frame = ShotFrame { shot: JobId(7), frame: 3, frames: 24 };
+        let plan = PassPlan::new(64, Some(1e-3), Some(30.0));
         {
             let (j, _) = Journal::open(Some(&db)).unwrap();
             for (id, shot) in [(7, Some(frame)), (8, None)] {
-                let s = JobSpec { shot, ..spec(vec![[1u8; 32]]) };
+                let passes = (id == 8).then(|| plan.clone());
+                let s = JobSpec { shot, passes, ..spec(vec![[1u8; 32]]) };
                 j.send(Command::Submitted { id, detach: false, blobs: vec![], spec: Box::new(s) });
             }
             j.flush().await;
@@ -573,13 +593,17 @@ mod tests {
         let (j, restored) = Journal::open(Some(&db)).unwrap();
         let shots: Vec<_> = restored.jobs.iter().map(|s| (s.id, s.spec.shot)).collect();
         assert_eq!(shots, [(7, Some(frame)), (8, None)]);
-        purge(&j, vec![7]).await;
+        let passes: Vec<_> = restored.jobs.iter().map(|s| s.spec.passes.clone()).collect();
+        assert_eq!(passes, [None, Some(plan)]);
+        purge(&j, vec![7, 8]).await;
         drop(j);
         let (_, restored) = Journal::open(Some(&db)).unwrap();
-        assert_eq!(restored.jobs.len(), 1);
+        assert_eq!(restored.jobs.len(), 0);
         let conn = Connection::open(&db).unwrap();
         let rows: i64 = conn.query_row("SELECT count(*) FROM frames", [], |r| r.get(0)).unwrap();
         assert_eq!(rows, 0, "the purged frame's row is gone");
+        let rows: i64 = conn.query_row("SELECT count(*) FROM passes", [], |r| r.get(0)).unwrap();
+        assert_eq!(rows, 0, "the purged job's passes are gone");
         std::fs::remove_dir_all(&dir).ok();
     }
 }

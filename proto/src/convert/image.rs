@@ -4,6 +4,7 @@
 
 use crate::error::{Error, Result};
 use crate::v1;
+use farm_common::film::{PassEnd, PassStop};
 use farm_common::image::RgbImage;
 use farm_common::le::extend_f32s;
 use farm_common::stats::RayStats;
@@ -12,7 +13,7 @@ use farm_common::stats::RayStats;
 pub const IMAGE_CHUNK_BYTES: usize = 8 << 20;
 
 /// What travels with a finished image.
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
+#[derive(Clone, Debug, Default, PartialEq)]
 pub struct ImageFacts {
     /// Samples per pixel.
     pub spp: u32,
@@ -20,6 +21,44 @@ pub struct ImageFacts {
     pub render_seconds: f64,
     /// Rays traced.
     pub stats: RayStats,
+    /// A render in passes: each pass's end.
+    pub passes: Vec<PassEnd>,
+    /// Why a render in passes stopped.
+    pub stopped: Option<PassStop>,
+}
+
+/// A pass's end on the wire.
+impl From<&PassEnd> for v1::PassEnd {
+    fn from(p: &PassEnd) -> Self {
+        v1::PassEnd { spp: p.spp, estimated_rel_mse: p.estimate, seconds: p.seconds }
+    }
+}
+
+/// A pass's end from the wire.
+impl From<&v1::PassEnd> for PassEnd {
+    fn from(p: &v1::PassEnd) -> Self {
+        PassEnd { spp: p.spp, estimate: p.estimated_rel_mse, seconds: p.seconds }
+    }
+}
+
+/// Why a render in passes stopped, as the wire names it.
+pub fn stop_name(s: Option<PassStop>) -> &'static str {
+    match s {
+        None => "",
+        Some(PassStop::TargetReached) => "target",
+        Some(PassStop::TimeLimit) => "time",
+        Some(PassStop::Cap) => "cap",
+    }
+}
+
+/// Why a render in passes stopped, from its wire name.
+pub fn stop_from_name(s: &str) -> Option<PassStop> {
+    match s {
+        "target" => Some(PassStop::TargetReached),
+        "time" => Some(PassStop::TimeLimit),
+        "cap" => Some(PassStop::Cap),
+        _ => None,
+    }
 }
 
 /// An image put back together, with its error estimate if one was sent.
@@ -62,6 +101,8 @@ pub fn image_chunks(
                 spp: facts.spp,
                 render_seconds: facts.render_seconds,
                 stats: Some(v1::RayStats::from(&facts.stats)),
+                passes: facts.passes.iter().map(v1::PassEnd::from).collect(),
+                stopped: stop_name(facts.stopped).to_string(),
             }
         })
         .collect()
@@ -122,6 +163,8 @@ impl ImageAssembler {
             spp: img.spp,
             render_seconds: img.render_seconds,
             stats: img.stats.as_ref().map(RayStats::from).unwrap_or_default(),
+            passes: img.passes.iter().map(PassEnd::from).collect(),
+            stopped: stop_from_name(&img.stopped),
         };
         Ok(Some(AssembledImage { image, error, facts }))
     }
@@ -142,7 +185,16 @@ mod tests {
         let w = IMAGE_CHUNK_BYTES / 12 / 3 + 1;
         let img = image(w, 7);
         let map: Vec<f32> = (0..w * 7).map(|i| i as f32 * 1e-3).collect();
-        let facts = ImageFacts { spp: 16, render_seconds: 1.5, stats: RayStats::default() };
+        let facts = ImageFacts {
+            spp: 16,
+            render_seconds: 1.5,
+            stats: RayStats::default(),
+            passes: vec![
+                PassEnd { spp: 4, estimate: Some(1e-2), seconds: 0.5 },
+                PassEnd { spp: 8, estimate: None, seconds: 1.5 },
+            ],
+            stopped: Some(PassStop::TargetReached),
+        };
         let chunks = image_chunks(&img, Some((&map, 2e-3)), &facts);
         assert!(chunks.len() > 1, "{} chunks", chunks.len());
         let mut a = ImageAssembler::default();

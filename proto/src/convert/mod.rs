@@ -9,7 +9,10 @@ mod stats;
 mod tile;
 
 pub use blob::{blob_chunks, BlobAssembler, ChunkSequence};
-pub use image::{image_chunks, AssembledImage, ImageAssembler, ImageFacts, IMAGE_CHUNK_BYTES};
+pub use image::{
+    image_chunks, stop_from_name, stop_name, AssembledImage, ImageAssembler, ImageFacts,
+    IMAGE_CHUNK_BYTES,
+};
 pub use preview::{decode_preview, push_piece, PREVIEW_PIECE};
 pub use scene::{
     attach_asset, decode_manifest, decode_scene, encode_scene, is_shape_key, Blob, Hash,

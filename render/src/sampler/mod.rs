@@ -35,7 +35,7 @@ pub use zerotwosequence::ZeroTwoSequenceSampler;
 pub use farm_common::film::Halves;
 
 use crate::sampling::CameraSample;
-use farm_common::film::SamplerKind;
+use farm_common::film::{round_up_pow2, stratified_grid, SamplerKind};
 use farm_common::geometry::{Point2i, Vec2};
 
 /// One of pbrt-v3's samplers.
@@ -97,24 +97,32 @@ impl Sampler {
         self.core().spp as u32
     }
 
+    /// Which of pbrt-v3's samplers it is.
+    pub fn kind(&self) -> SamplerKind {
+        match self {
+            Sampler::Halton(_) => SamplerKind::Halton,
+            Sampler::Sobol(_) => SamplerKind::Sobol,
+            Sampler::ZeroTwoSequence(_) => SamplerKind::ZeroTwoSequence,
+            Sampler::MaxMinDist(_) => SamplerKind::MaxMinDist,
+            Sampler::Stratified(_) => SamplerKind::Stratified,
+            Sampler::Random(_) => SamplerKind::Random,
+        }
+    }
+
     /// How a pixel's samples split into the two halves the film keeps apart
     /// for the render's estimate of its own error.
     pub fn halves(&self) -> Halves {
-        let (kind, strata) = match self {
-            Sampler::Halton(_) => (SamplerKind::Halton, (0, 0)),
-            Sampler::Sobol(_) => (SamplerKind::Sobol, (0, 0)),
-            Sampler::ZeroTwoSequence(_) => (SamplerKind::ZeroTwoSequence, (0, 0)),
-            Sampler::MaxMinDist(_) => (SamplerKind::MaxMinDist, (0, 0)),
-            Sampler::Stratified(st) => (SamplerKind::Stratified, st.strata()),
-            Sampler::Random(_) => (SamplerKind::Random, (0, 0)),
+        let strata = match self {
+            Sampler::Stratified(st) => st.strata(),
+            _ => (0, 0),
         };
-        Halves::of(kind, self.samples_per_pixel(), strata)
+        Halves::of(self.kind(), self.samples_per_pixel(), strata)
     }
 
     /// Whether a pixel's samples depend on the pixel alone (Halton and
     /// Sobol'), not on the pixels drawn before it in the tile.
     pub fn is_stateless(&self) -> bool {
-        matches!(self, Sampler::Halton(_) | Sampler::Sobol(_))
+        self.kind().continues_sequence()
     }
 
     /// A copy for one tile (pbrt-v3 `Clone(seed)`): pixel samplers and the
@@ -128,6 +136,38 @@ impl Sampler {
             Sampler::MaxMinDist(m) => m.px.rng.set_sequence(seed),
             Sampler::Stratified(t) => t.px.rng.set_sequence(seed),
             Sampler::Random(r) => r.rng.set_sequence(seed),
+        }
+        s
+    }
+
+    /// A sampler of the same kind and parameters taking `spp` samples per
+    /// pixel: one pass of a render in passes
+    /// (`farm_common::film::PassPlan`) for the samplers with state, whose
+    /// passes are each a set of their own size. Halton and Sobol' continue
+    /// one sequence and are returned as they are.
+    pub fn with_spp(&self, spp: u32) -> Sampler {
+        let n = i64::from(spp.max(1));
+        let dims = |px: &PixelSampler| px.samples_1d.len();
+        let mut s = match self {
+            Sampler::Halton(_) | Sampler::Sobol(_) => return self.clone(),
+            Sampler::ZeroTwoSequence(z) => {
+                Sampler::ZeroTwoSequence(ZeroTwoSequenceSampler::new(round_up_pow2(n), dims(&z.px)))
+            }
+            Sampler::MaxMinDist(m) => {
+                Sampler::MaxMinDist(MaxMinDistSampler::new(round_up_pow2(n), dims(&m.px)))
+            }
+            Sampler::Stratified(t) => {
+                let (xs, ys) = stratified_grid(spp as usize);
+                Sampler::Stratified(StratifiedSampler::new(xs, ys, t.jitter, dims(&t.px)))
+            }
+            Sampler::Random(_) => Sampler::Random(RandomSampler::new(n, 0)),
+        };
+        let core = self.core();
+        for &k in &core.array_1d_sizes {
+            s.request_1d_array(k);
+        }
+        for &k in &core.array_2d_sizes {
+            s.request_2d_array(k);
         }
         s
     }

@@ -65,7 +65,7 @@ pub struct StratifiedSampler {
     pub px: PixelSampler,
     x_samples: usize,
     y_samples: usize,
-    jitter: bool,
+    pub(super) jitter: bool,
 }
 
 impl StratifiedSampler {

@@ -1,0 +1,152 @@
+//! Renders in passes (`--target-error`, `--time-limit`): a job stopped
+//! after the pass that reached n samples per pixel gives the image of a
+//! one-shot n-sample render, within the bound that adding the same terms in
+//! another grouping allows (Halton and Sobol'), and a sampler with state
+//! renders its first pass as a one-shot render of that size.
+
+use farm_cli::embedded::{self as submit, RenderSummary, SubmitOptions};
+use farm_common::film::{sum_order_bound, PassStop};
+use farm_common::image::RgbImage;
+use std::path::{Path, PathBuf};
+
+/// The project's example scene, small, with `sampler` and without the
+/// floor's texture (whose filtering depends on the job's sample count);
+/// the filter stays the 2-pixel Gaussian, so samples reach 25 pixels.
+fn scene(sampler: &str) -> PathBuf {
+    let example = Path::new(env!("CARGO_MANIFEST_DIR")).join("../scenes/example.pbrt");
+    let text = std::fs::read_to_string(example).unwrap();
+    let text = text
+        .replace("\"integer xresolution\" [ 480 ]", "\"integer xresolution\" [ 120 ]")
+        .replace("\"integer yresolution\" [ 320 ]", "\"integer yresolution\" [ 80 ]")
+        .replace("Sampler \"halton\"", &format!("Sampler \"{sampler}\""))
+        .replace(
+            "Material \"matte\" \"texture Kd\" \"checks\"",
+            "Material \"matte\" \"rgb Kd\" [ 0.5 0.5 0.5 ]",
+        );
+    let dir = std::env::temp_dir().join(format!("farm-passes-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let path = dir.join(format!("{sampler}.pbrt"));
+    std::fs::write(&path, text).unwrap();
+    path
+}
+
+fn render(
+    path: &Path,
+    spp: u32,
+    target_error: Option<f64>,
+    time_limit: Option<f64>,
+) -> RenderSummary {
+    let opts = SubmitOptions {
+        spp: Some(spp),
+        threads: 2,
+        target_error,
+        time_limit,
+        ..Default::default()
+    };
+    submit::render(path, &opts, |_| {}).expect("render")
+}
+
+/// Every channel of `a` and `b` within `rel` of each other; returns how
+/// many pixels are bit-identical.
+fn within(a: &RgbImage, b: &RgbImage, rel: f64, what: &str) -> usize {
+    assert_eq!((a.width, a.height), (b.width, b.height));
+    let mut same = 0;
+    for (i, (p, q)) in a.pixels.iter().zip(&b.pixels).enumerate() {
+        same += usize::from(p.map(f32::to_bits) == q.map(f32::to_bits));
+        for c in 0..3 {
+            let (x, y) = (f64::from(p[c]), f64::from(q[c]));
+            assert!(
+                (x - y).abs() <= rel * x.abs().max(y.abs()) + 1e-30,
+                "{what}: pixel {i} channel {c}: {x} against {y}, over the bound {rel:e}"
+            );
+        }
+    }
+    same
+}
+
+#[test]
+fn four_passes_give_the_one_shot_image_within_the_float_bound() {
+    let spp = 32;
+    for sampler in ["halton", "sobol"] {
+        let path = scene(sampler);
+        // A target of 0 is never reached: passes of 4, 8, 16 and 32 samples.
+        let passes = render(&path, spp, Some(0.0), None);
+        let once = render(&path, spp, None, None);
+        let reached: Vec<u32> = passes.passes.iter().map(|p| p.spp).collect();
+        assert_eq!(reached, [4, 8, 16, 32], "{sampler}");
+        assert_eq!(passes.stopped, Some(PassStop::Cap));
+        assert_eq!(passes.stats.camera_rays, once.stats.camera_rays, "{sampler}: the same samples");
+        assert_eq!(passes.stats.total_rays(), once.stats.total_rays(), "{sampler}: the same rays");
+        // Each of Σw·c and Σw is the same sum of non-negative terms (a
+        // Gaussian filter, no negative radiance), at most spp × 5 × 5 of
+        // them, grouped by pass and tile instead of added in one run. The
+        // image divides the two, and that division rounds once more.
+        let terms = u64::from(spp) * 25;
+        let sum = 1.0 + 1e-6;
+        let rel = 2.0 * sum_order_bound(terms, sum) + f64::from(f32::EPSILON);
+        let same = within(&passes.image, &once.image, rel, sampler);
+        eprintln!(
+            "{sampler}: {same} of {} pixels bit-identical; bound {rel:.2e}",
+            once.image.pixels.len()
+        );
+        let (e1, e2) = (passes.error.unwrap().rel_mse, once.error.unwrap().rel_mse);
+        assert!((e1 - e2).abs() <= 1e-3 * e2, "{sampler}: estimates {e1} and {e2}");
+    }
+}
+
+#[test]
+fn a_sampler_with_state_renders_its_first_pass_as_a_one_shot_render() {
+    for sampler in ["stratified", "random", "02sequence", "maxmindist"] {
+        let path = scene(sampler);
+        // Any estimate meets this target: the render stops after pass 1.
+        let first = render(&path, 32, Some(f64::MAX), None);
+        assert_eq!((first.spp, first.stopped), (4, Some(PassStop::TargetReached)), "{sampler}");
+        let once = render(&path, 4, None, None);
+        let bits =
+            |i: &RgbImage| i.pixels.iter().flat_map(|p| p.map(f32::to_bits)).collect::<Vec<_>>();
+        assert!(
+            bits(&first.image) == bits(&once.image),
+            "{sampler}: first pass differs from 4 spp"
+        );
+        // Later passes draw on streams of their own: 8 samples in two
+        // passes are not the one-shot 8-sample set, but as good.
+        let two = render(&path, 8, Some(0.0), None);
+        assert_eq!(two.passes.len(), 2);
+        let eight = render(&path, 8, None, None);
+        assert!(bits(&two.image) != bits(&eight.image), "{sampler}");
+    }
+}
+
+#[test]
+fn a_time_limit_stops_after_the_pass_that_ends_past_it() {
+    let path = scene("halton");
+    let r = render(&path, 64, None, Some(0.0));
+    assert_eq!((r.spp, r.stopped, r.passes.len()), (4, Some(PassStop::TimeLimit), 1));
+    let r = render(&path, 64, None, Some(1e9));
+    assert_eq!((r.spp, r.stopped, r.passes.len()), (64, Some(PassStop::Cap), 5));
+    let secs: Vec<f64> = r.passes.iter().map(|p| p.seconds).collect();
+    assert!(secs.windows(2).all(|w| w[0] <= w[1]), "{secs:?}");
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 4)]
+async fn passes_on_two_workers_match_the_embedded_passes_bit_for_bit() {
+    use farm_cli::client::{self, Remote, RemoteOptions};
+    let path = scene("halton");
+    let embedded = render(&path, 16, Some(0.0), None);
+    let cluster =
+        farm_tests::cluster::TestCluster::start(2, std::time::Duration::from_millis(500)).await;
+    let remote = Remote::insecure(&cluster.url);
+    let opts = RemoteOptions { spp: Some(16), target_error: Some(0.0), ..Default::default() };
+    let farm = client::submit(&remote, &path, &opts, |_, _| {}).await.expect("farm render");
+    assert!(farm_tests::bits(&farm.image) == farm_tests::bits(&embedded.image), "image differs");
+    let spp = |s: &RenderSummary| s.passes.iter().map(|p| (p.spp, p.estimate)).collect::<Vec<_>>();
+    assert_eq!(spp(&farm), spp(&embedded));
+    assert_eq!(farm.stopped, Some(PassStop::Cap));
+    // A plan that cannot be is refused before anything renders.
+    for (e, s) in [(Some(f64::NAN), None), (Some(-1.0), None), (None, Some(f64::INFINITY))] {
+        let bad = RemoteOptions { target_error: e, time_limit: s, ..opts.clone() };
+        let err = client::submit(&remote, &path, &bad, |_, _| {}).await.expect_err("refused");
+        assert!(err.to_string().contains("passes:"), "{err}");
+    }
+    cluster.stop().await;
+}
