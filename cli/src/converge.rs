@@ -7,6 +7,7 @@ use crate::error::Error;
 use farm_common::image as metrics;
 
 use crate::embedded::{self, SubmitOptions};
+use farm_common::image::RgbImage;
 use farm_common::math;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
@@ -65,8 +66,12 @@ pub struct Convergence {
     pub rows: Vec<Row>,
 }
 
-/// Renders `scene` at each sample count and measures every render.
-/// `progress` gets the sample count being rendered and its tile progress.
+/// Renders `scene` once, in passes that end at each sample count (and at
+/// every doubling between them, so each pass's estimate compares two equal
+/// halves where it can), and measures the image after each of those
+/// passes. A count's row is the render stopped there: its time is the
+/// time to reach it. `progress` gets the highest count and the tile
+/// progress of the pass under way.
 pub fn run(
     scene: &Path,
     opts: &ConvergeOptions,
@@ -76,60 +81,96 @@ pub fn run(
         Some(p) => Some(metrics::read_file(p).map_err(Error::Reference)?),
         None => None,
     };
-    let render = |spp: Option<u32>, progress: &mut dyn FnMut(u32, &Progress)| {
-        let overrides =
-            farm_scene::Overrides { sampler: opts.sampler.clone(), ..Default::default() };
-        let o = SubmitOptions { spp, threads: opts.threads, overrides, ..Default::default() };
-        let label = spp.unwrap_or(0);
-        embedded::render(scene, &o, |p| progress(label, p))
-    };
-    // The highest count first: without a list it is the scene's own count,
-    // which sets the rest of the series.
+    let start = std::time::Instant::now();
+    let (mut desc, mut warnings) = farm_scene::parse_file(scene)?;
+    let overrides = farm_scene::Overrides { sampler: opts.sampler.clone(), ..Default::default() };
+    overrides.apply(&mut desc, &mut warnings);
     let mut counts = opts.spp.clone();
     counts.sort_unstable();
     counts.dedup();
-    let top = render(counts.last().copied(), &mut progress)?;
-    if counts.is_empty() {
-        counts = std::iter::successors(Some(1u32), |n| n.checked_mul(2))
-            .take_while(|&n| n < top.spp)
-            .chain([top.spp])
-            .collect();
-    }
-    let reference = reference.unwrap_or_else(|| top.image.clone());
-    let against = match &opts.reference {
-        Some(p) => Against::Reference(p.clone()),
-        None => Against::HighestSpp(top.spp),
-    };
-    let (rw, rh) = (reference.width, reference.height);
-    if (rw, rh) != (top.image.width, top.image.height) {
+    let (layout, _) = farm_common::film::layout(&desc, counts.last().copied());
+    let top = layout.spp();
+    let b = layout.geometry.cropped_pixel_bounds;
+    let (w, h) = (b.width().max(0) as usize, b.height().max(0) as usize);
+    if let Some(r) = reference.as_ref().filter(|r| (r.width, r.height) != (w, h)) {
         return Err(Error::SizeMismatch {
             path: opts.reference.as_deref().unwrap_or(scene).display().to_string(),
-            rw,
-            rh,
-            w: top.image.width,
-            h: top.image.height,
+            rw: r.width,
+            rh: r.height,
+            w,
+            h,
         });
     }
-    let measure = |s: &embedded::RenderSummary, is_reference: bool| {
-        let samples = (s.image.width * s.image.height) as f64 * f64::from(s.spp);
-        Row {
-            spp: s.spp,
-            render_seconds: s.render_seconds,
-            startup_seconds: s.startup_seconds,
-            rays: s.stats.total_rays(),
-            ns_per_sample: s.render_seconds * 1e9 / samples.max(1.0),
-            rel_mse: (!is_reference)
-                .then(|| metrics::compare(&s.image, &reference).map(|e| e.rel_mse))
-                .flatten(),
-            estimate: s.error.as_ref().map(|e| e.rel_mse),
-        }
-    };
-    let mut rows = Vec::with_capacity(counts.len());
-    for &spp in &counts[..counts.len() - 1] {
-        let s = render(Some(spp), &mut progress)?;
-        rows.push(measure(&s, false));
+    // The sampler may round the count up (Sobol', (0,2)-sequence).
+    if let Some(last) = counts.last_mut() {
+        *last = top;
     }
-    rows.push(measure(&top, opts.reference.is_none()));
+    if counts.is_empty() {
+        counts = std::iter::successors(Some(1u32), |n| n.checked_mul(2))
+            .take_while(|&n| n < top)
+            .chain([top])
+            .collect();
+    }
+    let mut totals: Vec<u32> = std::iter::successors(Some(counts[0]), |n| n.checked_mul(2))
+        .take_while(|&n| n < top)
+        .chain(counts.iter().copied())
+        .collect();
+    totals.sort_unstable();
+    totals.dedup();
+    let o = SubmitOptions {
+        spp: Some(top),
+        threads: opts.threads,
+        pass_totals: totals,
+        ..Default::default()
+    };
+    let pixels = |img: &RgbImage| (img.width * img.height) as f64;
+    let row = |spp: u32, seconds: f64, rays: u64, image: &RgbImage, estimate: Option<f64>| Row {
+        spp,
+        render_seconds: seconds,
+        startup_seconds: 0.0,
+        rays,
+        ns_per_sample: seconds * 1e9 / (pixels(image) * f64::from(spp)).max(1.0),
+        rel_mse: reference.as_ref().and_then(|r| metrics::compare(image, r).map(|e| e.rel_mse)),
+        estimate,
+    };
+    // Without a reference, each earlier image waits for the last one.
+    let mut rows = Vec::with_capacity(counts.len());
+    let mut images = Vec::new();
+    let summary = embedded::render_parsed_with(
+        desc,
+        warnings,
+        start,
+        &o,
+        |p| progress(top, p),
+        |end, film, stats| {
+            if counts.contains(&end.spp) {
+                let image = film.image();
+                let estimate = film.error_estimate().map(|e| e.rel_mse);
+                rows.push(row(end.spp, end.seconds, stats.total_rays(), &image, estimate));
+                if reference.is_none() {
+                    images.push(image);
+                }
+            }
+        },
+    )?;
+    let seconds = summary.passes.last().map_or(summary.render_seconds, |p| p.seconds);
+    let estimate = summary.error.as_ref().map(|e| e.rel_mse);
+    let mut last = row(summary.spp, seconds, summary.stats.total_rays(), &summary.image, estimate);
+    last.startup_seconds = summary.startup_seconds;
+    if reference.is_none() {
+        for (row, image) in rows.iter_mut().zip(&images) {
+            row.rel_mse = metrics::compare(image, &summary.image).map(|e| e.rel_mse);
+        }
+        last.rel_mse = None;
+    }
+    for row in &mut rows {
+        row.startup_seconds = summary.startup_seconds;
+    }
+    rows.push(last);
+    let against = match &opts.reference {
+        Some(p) => Against::Reference(p.clone()),
+        None => Against::HighestSpp(summary.spp),
+    };
     Ok(Convergence { scene: scene.to_path_buf(), against, rows })
 }
 

@@ -16,6 +16,7 @@ use farm_common::scene::{SceneDescription, Warning};
 use farm_common::stats::RayStats;
 use farm_coordinator::estimate::ErrorEstimate;
 use farm_coordinator::live::LiveCursor;
+use farm_coordinator::merge::Film;
 use farm_coordinator::scheduler::{
     Assignment, FinishedJob, JobSpec, JobUpdate, Outbox, Scheduler, SchedulerConfig,
 };
@@ -53,6 +54,10 @@ pub struct SubmitOptions {
     /// Render in passes and stop after the first that ends this many
     /// seconds or more after the render started (`--time-limit`).
     pub time_limit: Option<f64>,
+    /// Render in passes that end at these samples per pixel, increasing,
+    /// the last at most the render's (`farm converge`); empty: the passes
+    /// of `target_error` and `time_limit`, if any.
+    pub pass_totals: Vec<u32>,
 }
 
 /// Progress of a running render.
@@ -178,8 +183,25 @@ pub fn run_job<R>(
     render: R,
     job: LocalJob,
     threads: usize,
+    display: Option<&mut Display>,
+    progress: impl FnMut(&Progress),
+) -> Result<Arc<FinishedJob>, Error>
+where
+    R: Fn(TileId, Option<SampleRange>) -> (FilmTile, RayStats) + Send + Sync + 'static,
+{
+    run_job_with(render, job, threads, display, progress, |_, _, _| {})
+}
+
+/// [`run_job`], calling `on_pass` with each pass's end, the film as it
+/// stands then and the rays traced so far, for every pass of a job in passes but its last (whose
+/// image and estimate are the finished job's).
+pub fn run_job_with<R>(
+    render: R,
+    job: LocalJob,
+    threads: usize,
     mut display: Option<&mut Display>,
     mut progress: impl FnMut(&Progress),
+    mut on_pass: impl FnMut(&PassEnd, &mut Film, &RayStats),
 ) -> Result<Arc<FinishedJob>, Error>
 where
     R: Fn(TileId, Option<SampleRange>) -> (FilmTile, RayStats) + Send + Sync + 'static,
@@ -218,6 +240,7 @@ where
     let job = sched.submit(spec, &mut out);
     let mut last_failure = String::new();
     let mut live = LiveCursor::new();
+    let mut passes_seen = 0;
     loop {
         for update in out.updates.drain(..) {
             match update {
@@ -256,7 +279,16 @@ where
         sched.heard_from(LOCAL_WORKER, Instant::now());
         match r.outcome {
             Ok((film_tile, stats)) => {
-                sched.tile_done(LOCAL_WORKER, r.key, film_tile, stats, &mut out)
+                sched.tile_done(LOCAL_WORKER, r.key, film_tile, stats, &mut out);
+                let ends = sched.pass_ends(job);
+                if ends.len() > passes_seen {
+                    passes_seen = ends.len();
+                    let end = ends[ends.len() - 1];
+                    let stats = sched.stats(job).unwrap_or_default();
+                    if let Some(film) = sched.film_mut(job) {
+                        on_pass(&end, film, &stats);
+                    }
+                }
             }
             Err(message) => {
                 last_failure = format!("tile {}: {message}", r.key.tile.0);
@@ -281,11 +313,23 @@ pub fn render(
 /// Builds and renders a parsed scene (parsing began at `start`), as
 /// [`render`] does.
 pub fn render_parsed(
+    desc: SceneDescription,
+    warnings: Vec<Warning>,
+    start: Instant,
+    opts: &SubmitOptions,
+    progress: impl FnMut(&Progress),
+) -> Result<RenderSummary, Error> {
+    render_parsed_with(desc, warnings, start, opts, progress, |_, _, _| {})
+}
+
+/// [`render_parsed`], calling `on_pass` as [`run_job_with`] does.
+pub fn render_parsed_with(
     mut desc: SceneDescription,
     mut warnings: Vec<Warning>,
     start: Instant,
     opts: &SubmitOptions,
     progress: impl FnMut(&Progress),
+    on_pass: impl FnMut(&PassEnd, &mut Film, &RayStats),
 ) -> Result<RenderSummary, Error> {
     opts.overrides.apply(&mut desc, &mut warnings);
     // Refuse an oversize film before anything is allocated for it.
@@ -301,15 +345,19 @@ pub fn render_parsed(
     let features = renderer.features.clone();
     let t = Instant::now();
     let (mut geometry, spp) = (renderer.film.clone(), renderer.samples_per_pixel());
-    let passes = PassPlan::for_job(
-        renderer.sampler.kind(),
-        spp,
-        opts.target_error,
-        opts.time_limit,
-        &mut geometry,
-    );
+    let kind = renderer.sampler.kind();
+    let mut passes =
+        PassPlan::for_job(kind, spp, opts.target_error, opts.time_limit, &mut geometry);
+    if !opts.pass_totals.is_empty() {
+        let plan =
+            PassPlan { totals: opts.pass_totals.clone(), target_error: None, time_limit: None };
+        passes = Some(plan.laid_on(kind, &mut geometry));
+    }
     if let Some(p) = &passes {
         p.check().map_err(Error::Usage)?;
+        if p.totals.last().is_some_and(|&n| n > spp) {
+            return Err(Error::Usage(format!("passes {:?} go past {spp} spp", p.totals)));
+        }
     }
     let mut display = opts.display_server.as_deref().and_then(|address| {
         let b = geometry.cropped_pixel_bounds;
@@ -325,7 +373,7 @@ pub fn render_parsed(
         None => renderer.render_tile(tile),
     };
     let job = LocalJob { geometry, spp, name: name.clone(), passes };
-    let finished = run_job(render, job, opts.threads, display.as_mut(), progress)?;
+    let finished = run_job_with(render, job, opts.threads, display.as_mut(), progress, on_pass)?;
     let render_seconds = t.elapsed().as_secs_f64();
     let finished = Arc::try_unwrap(finished).unwrap_or_else(|f| (*f).clone());
     Ok(RenderSummary {

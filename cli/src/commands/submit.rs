@@ -308,6 +308,7 @@ pub(super) fn run_embedded_to(
         display_server: args.display_server.clone(),
         target_error: args.target_error,
         time_limit: args.time_limit.map(|d| d.as_secs_f64()),
+        pass_totals: Vec::new(),
     };
     let bar = crate::progress::progress_bar(args.quiet);
     let started = std::time::Instant::now();

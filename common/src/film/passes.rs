@@ -18,7 +18,7 @@
 //! drawn before it; their passes are each a set of their own size, drawn
 //! on a stream of their own, as a one-shot render of that size would be.
 
-use super::{FilmGeometry, SamplerKind};
+use super::{FilmGeometry, HalfImages, SamplerKind};
 use serde::{Deserialize, Serialize};
 
 /// Samples per pixel of a plan's first pass.
@@ -115,7 +115,9 @@ impl PassPlan {
     /// given (the job renders in one pass). A sampler with state renders
     /// each pass as a set of its own, independent of the others, so the
     /// film's estimate treats its halves as independent
-    /// (`geometry.independent_samples`).
+    /// (`geometry.half_images`), and its passes start at half
+    /// [`FIRST_PASS_SPP`], so that at [`FIRST_PASS_SPP`] already the halves
+    /// are two sets.
     pub fn for_job(
         kind: SamplerKind,
         spp: u32,
@@ -126,10 +128,22 @@ impl PassPlan {
         if target_error.is_none() && time_limit.is_none() {
             return None;
         }
+        Some(PassPlan::new(spp, target_error, time_limit).laid_on(kind, geometry))
+    }
+
+    /// The plan, for a job of sampler `kind` on `geometry`: see
+    /// [`PassPlan::for_job`].
+    pub fn laid_on(mut self, kind: SamplerKind, geometry: &mut FilmGeometry) -> PassPlan {
         if !kind.continues_sequence() {
-            geometry.independent_samples = true;
+            geometry.half_images = HalfImages::Independent;
+            // Its first pass's halves would be parts of one set: a first
+            // pass of half the samples makes the second pass's halves two
+            // independent sets.
+            if self.totals.len() > 1 && self.totals[0] == FIRST_PASS_SPP {
+                self.totals.insert(0, FIRST_PASS_SPP / 2);
+            }
         }
-        Some(PassPlan::new(spp, target_error, time_limit))
+        self
     }
 
     /// Why the values cannot make a plan, if they cannot.
@@ -231,6 +245,28 @@ mod tests {
         // A target of 0 is never reached before the cap (a zero estimate aside).
         let all = PassPlan::new(64, Some(0.0), None);
         assert_eq!(all.stop_after(2, Some(1e-9), 1.0), None);
+    }
+
+    #[test]
+    fn a_sampler_with_state_starts_at_two_samples_and_has_independent_halves() {
+        use crate::geometry::{Bounds2i, Point2i, Vec2};
+        let b = Bounds2i::new(Point2i::new(0, 0), Point2i::new(8, 8));
+        let geometry = || FilmGeometry::new(b.max, b, Vec2::splat(0.5), 1.0, 1e9, "x".into(), 35.0);
+        for (kind, first, halves) in [
+            (SamplerKind::Halton, 4, HalfImages::Sequence),
+            (SamplerKind::Sobol, 4, HalfImages::Sequence),
+            (SamplerKind::Stratified, 2, HalfImages::Independent),
+            (SamplerKind::Random, 2, HalfImages::Independent),
+        ] {
+            let mut g = geometry();
+            g.half_images = HalfImages::of(kind);
+            let p = PassPlan::for_job(kind, 64, Some(1e-3), None, &mut g).unwrap();
+            assert_eq!((p.totals[0], g.half_images), (first, halves), "{kind:?}");
+            assert_eq!(*p.totals.last().unwrap(), 64);
+        }
+        let mut g = geometry();
+        assert_eq!(PassPlan::for_job(SamplerKind::Random, 64, None, None, &mut g), None);
+        assert_eq!(g.half_images, HalfImages::Spread, "no passes, no change");
     }
 
     #[test]

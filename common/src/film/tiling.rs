@@ -1,3 +1,4 @@
+use super::SamplerKind;
 use crate::geometry::{Bounds2i, Point2i, Vec2};
 use crate::ids::TileId;
 use crate::scene::{Params, SceneDescription, Warning};
@@ -5,6 +6,35 @@ use serde::{Deserialize, Serialize};
 
 /// Tiles are 16×16 samples' worth of pixels, as in pbrt-v3.
 pub const TILE_SIZE: i32 = 16;
+
+/// How the two half-images of a film's samples relate, which sets how a
+/// render turns their difference into an error estimate
+/// (`farm_coordinator::estimate`). It is stored as one byte, as the `bool`
+/// it replaces was, so a journal written before it still reads: `false`
+/// was [`HalfImages::Spread`] and `true` [`HalfImages::Independent`].
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub enum HalfImages {
+    /// Two halves of one stratified or low-discrepancy set, split across
+    /// its strata: the pixel samplers' one-shot renders.
+    #[default]
+    Spread,
+    /// Two independent sets: the random sampler, and a render in passes of
+    /// a sampler with state (each pass its own set).
+    Independent,
+    /// The first and second halves of one sequence: Halton and Sobol'.
+    Sequence,
+}
+
+impl HalfImages {
+    /// The halves of a one-shot render with sampler `kind`.
+    pub fn of(kind: SamplerKind) -> HalfImages {
+        match kind {
+            SamplerKind::Random => HalfImages::Independent,
+            SamplerKind::Halton | SamplerKind::Sobol => HalfImages::Sequence,
+            _ => HalfImages::Spread,
+        }
+    }
+}
 
 /// Where the film's pixels and samples lie, and how they split into tiles.
 /// The coordinator and every worker compute the same geometry from the same
@@ -31,11 +61,10 @@ pub struct FilmGeometry {
     pub filename: String,
     /// `diagonal` in millimetres (used by the realistic camera only).
     pub diagonal: f32,
-    /// Whether a pixel's samples are independent of each other (pbrt-v3's
-    /// `random` sampler) rather than a low-discrepancy or stratified set.
-    /// It sets how a render turns its half-images into an error estimate.
+    /// How the two half-images of its samples relate: it sets how a render
+    /// turns their difference into an error estimate.
     #[serde(default)]
-    pub independent_samples: bool,
+    pub half_images: HalfImages,
     /// Whether the filter has negative lobes (`mitchell`, `sinc`), so a
     /// pixel's sum of weights may be negative; with any other filter a
     /// negative weight can only come from a broken or lying worker.
@@ -93,7 +122,7 @@ impl FilmGeometry {
             filename,
             diagonal,
         );
-        film.independent_samples = desc.sampler.name == "random";
+        film.half_images = HalfImages::of(SamplerKind::named(&desc.sampler.name).0);
         film.signed_weights = matches!(desc.filter.name.as_str(), "mitchell" | "sinc");
         (film, warnings)
     }
@@ -126,7 +155,7 @@ impl FilmGeometry {
             max_sample_luminance,
             filename,
             diagonal,
-            independent_samples: false,
+            half_images: HalfImages::default(),
             signed_weights: false,
         }
     }

@@ -4,7 +4,7 @@
 //! they were, or in what order results came back.
 
 use crate::error::Error;
-use crate::estimate::{pixel_error, ErrorEstimate, Samples};
+use crate::estimate::{pixel_error, ErrorEstimate};
 use farm_common::film::{resolve, FilmGeometry, FilmTile};
 use farm_common::geometry::{Bounds2i, Point2i};
 use farm_common::ids::TileId;
@@ -54,6 +54,8 @@ pub struct Film {
     /// worked out once: merging, the running estimate and every watcher
     /// ask for them.
     finals: Vec<Bounds2i>,
+    /// False from [`Film::next_pass`] until the pass's first tile.
+    pass_started: bool,
 }
 
 /// The error estimate of the merged tiles, brought up to date a tile at a
@@ -84,6 +86,7 @@ impl Film {
             changes: Vec::new(),
             running: Running::default(),
             finals,
+            pass_started: true,
         }
     }
 
@@ -118,10 +121,23 @@ impl Film {
     /// next pass's samples are the second half of the render it
     /// completes), and every tile is awaited again. Watchers are sent each
     /// region again as the pass's tiles merge.
+    ///
+    /// The second half and the estimate are cleared when the next pass's
+    /// first tile comes in, so until then [`Film::error_estimate`] is still
+    /// the finished pass's.
     pub fn next_pass(&mut self) {
         debug_assert!(self.is_complete() && self.pending.is_empty());
         self.next = 0;
         self.pending.clear();
+        self.pass_started = false;
+    }
+
+    /// Clears the second half and the estimate of the pass before, once.
+    fn start_pass(&mut self) {
+        if self.pass_started {
+            return;
+        }
+        self.pass_started = true;
         self.sums.second.fill([0.0; 4]);
         let map = std::mem::take(&mut self.running.map);
         self.running = Running::default();
@@ -166,6 +182,7 @@ impl Film {
     /// Takes a tile [`Film::check`] found new, and merges every tile whose
     /// turn has come.
     pub fn insert(&mut self, id: TileId, tile: FilmTile) {
+        self.start_pass();
         let g = &self.geometry;
         let crop = g.cropped_pixel_bounds;
         let early = id.0 != self.next;
@@ -215,7 +232,7 @@ impl Film {
     pub fn running_estimate(&mut self) -> Option<f64> {
         let g = &self.geometry;
         let b = g.cropped_pixel_bounds;
-        let samples = Samples::of(g.independent_samples);
+        let samples = g.half_images;
         let r = &mut self.running;
         if r.map.len() != b.area() {
             r.map = vec![0.0; b.area()];

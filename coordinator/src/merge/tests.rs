@@ -150,7 +150,7 @@ fn the_running_estimate_follows_the_merge_and_ends_on_the_final_one() {
         t
     };
     let b = g.cropped_pixel_bounds;
-    let samples = Samples::of(g.independent_samples);
+    let samples = g.half_images;
     for id in 0..n {
         f.accept(TileId(id), halves(id)).unwrap();
         unwatched.accept(TileId(id), halves(id)).unwrap();

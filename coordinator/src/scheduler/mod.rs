@@ -98,6 +98,17 @@ impl Scheduler {
         self.jobs.get(&job)?.film.as_ref()
     }
 
+    /// What each pass of a job in passes has left so far (empty for a job
+    /// without passes, or not known).
+    pub fn pass_ends(&self, job: JobId) -> &[farm_common::film::PassEnd] {
+        self.jobs.get(&job).map_or(&[], |j| j.pass_ends.as_slice())
+    }
+
+    /// The rays a job has traced so far.
+    pub fn stats(&self, job: JobId) -> Option<farm_common::stats::RayStats> {
+        self.jobs.get(&job).map(|j| j.stats)
+    }
+
     /// The film of an active job, to bring its running estimate up to date.
     pub fn film_mut(&mut self, job: JobId) -> Option<&mut crate::merge::Film> {
         self.jobs.get_mut(&job)?.film.as_mut()

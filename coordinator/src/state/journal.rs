@@ -606,4 +606,49 @@ mod tests {
         assert_eq!(rows, 0, "the purged job's passes are gone");
         std::fs::remove_dir_all(&dir).ok();
     }
+
+    /// A film journalled when its halves were the bool
+    /// `independent_samples` still decodes: false as `Spread`, true as
+    /// `Independent`.
+    #[test]
+    fn a_film_journalled_before_half_images_still_decodes() {
+        use farm_common::film::{FilmGeometry, HalfImages};
+        use farm_common::geometry::{Bounds2i, Point2i, Vec2};
+        #[derive(serde::Serialize)]
+        struct Before {
+            full_resolution: Point2i,
+            cropped_pixel_bounds: Bounds2i,
+            filter_radius: Vec2,
+            sample_bounds: Bounds2i,
+            n_tiles: Point2i,
+            scale: f32,
+            max_sample_luminance: f32,
+            filename: String,
+            diagonal: f32,
+            independent_samples: bool,
+            signed_weights: bool,
+        }
+        let b = Bounds2i::new(Point2i::new(0, 0), Point2i::new(40, 30));
+        let g = FilmGeometry::new(b.max, b, Vec2::splat(2.0), 1.0, 1e9, "x.exr".into(), 35.0);
+        for (old, now) in [(false, HalfImages::Spread), (true, HalfImages::Independent)] {
+            let before = Before {
+                full_resolution: g.full_resolution,
+                cropped_pixel_bounds: g.cropped_pixel_bounds,
+                filter_radius: g.filter_radius,
+                sample_bounds: g.sample_bounds,
+                n_tiles: g.n_tiles,
+                scale: g.scale,
+                max_sample_luminance: g.max_sample_luminance,
+                filename: g.filename.clone(),
+                diagonal: g.diagonal,
+                independent_samples: old,
+                signed_weights: true,
+            };
+            let bytes = postcard::to_stdvec(&before).unwrap();
+            let read: FilmGeometry = postcard::from_bytes(&bytes).unwrap();
+            assert_eq!(read.half_images, now);
+            assert!(read.signed_weights);
+            assert_eq!(read.filename, "x.exr");
+        }
+    }
 }
