@@ -4,10 +4,10 @@
 use crate::display::LiveDisplay;
 use crate::embedded::RenderSummary;
 use crate::error::Error;
-use farm_common::film::{FilmGeometry, PassEnd, PassStop};
+use farm_common::film::{FilmGeometry, PassEnd, PassStop, SamplerKind};
 use farm_common::scene::{SceneDescription, Warning};
 use farm_common::stats::RayStats;
-use farm_coordinator::estimate::ErrorEstimate;
+use farm_coordinator::estimate::{ErrorEstimate, Fireflies};
 use farm_proto::auth::Token;
 use farm_proto::connect::Client;
 use farm_proto::convert::{blob_chunks, decode_preview, encode_scene, Blob, ImageAssembler};
@@ -280,6 +280,7 @@ pub async fn submit_parsed(
         warnings,
         passes: done.passes,
         stopped: done.stopped,
+        sampler: Some(SamplerKind::of(&desc.sampler.name)),
     })
 }
 
@@ -391,7 +392,13 @@ async fn watch_once(
                     continue;
                 };
                 let (w, h) = (done.image.width, done.image.height);
+                let fireflies = done.facts.fireflies.map(|f| Fireflies {
+                    pixels: f.pixels as usize,
+                    rel_mse: f.rel_mse,
+                    brightest: f.brightest,
+                });
                 let error = done.error.map(|(per_pixel, rel_mse)| ErrorEstimate {
+                    fireflies,
                     width: w,
                     height: h,
                     per_pixel,

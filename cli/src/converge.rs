@@ -9,6 +9,7 @@ use farm_common::image as metrics;
 use crate::embedded::{self, SubmitOptions};
 use farm_common::image::RgbImage;
 use farm_common::math;
+use farm_coordinator::estimate::ErrorEstimate;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
@@ -44,6 +45,13 @@ pub struct Row {
     pub rel_mse: Option<f64>,
     /// The render's own estimate of its relMSE (`None` at 1 spp).
     pub estimate: Option<f64>,
+    /// Whether the estimate is claimed to lie within 2× of the true
+    /// relMSE: no fireflies, and a sampler without a caveat
+    /// (`crate::passes::caveat`).
+    pub claimed: bool,
+    /// When the render has fireflies, its estimate is a lower bound and
+    /// this the upper value (`ErrorEstimate::upper`).
+    pub upper: Option<f64>,
 }
 
 /// What the errors were measured against.
@@ -123,16 +131,20 @@ pub fn run(
         pass_totals: totals,
         ..Default::default()
     };
+    let caveat = crate::passes::caveat(layout.sampler, true);
     let pixels = |img: &RgbImage| (img.width * img.height) as f64;
-    let row = |spp: u32, seconds: f64, rays: u64, image: &RgbImage, estimate: Option<f64>| Row {
-        spp,
-        render_seconds: seconds,
-        startup_seconds: 0.0,
-        rays,
-        ns_per_sample: seconds * 1e9 / (pixels(image) * f64::from(spp)).max(1.0),
-        rel_mse: reference.as_ref().and_then(|r| metrics::compare(image, r).map(|e| e.rel_mse)),
-        estimate,
-    };
+    let row =
+        |spp: u32, seconds: f64, rays: u64, image: &RgbImage, e: Option<&ErrorEstimate>| Row {
+            spp,
+            render_seconds: seconds,
+            startup_seconds: 0.0,
+            rays,
+            ns_per_sample: seconds * 1e9 / (pixels(image) * f64::from(spp)).max(1.0),
+            rel_mse: reference.as_ref().and_then(|r| metrics::compare(image, r).map(|e| e.rel_mse)),
+            estimate: e.map(|e| e.rel_mse),
+            claimed: e.is_some_and(|e| e.fireflies.is_none()) && caveat.is_none(),
+            upper: e.filter(|e| e.fireflies.is_some()).map(|e| e.upper()),
+        };
     // Without a reference, each earlier image waits for the last one.
     let mut rows = Vec::with_capacity(counts.len());
     let mut images = Vec::new();
@@ -145,8 +157,8 @@ pub fn run(
         |end, film, stats| {
             if counts.contains(&end.spp) {
                 let image = film.image();
-                let estimate = film.error_estimate().map(|e| e.rel_mse);
-                rows.push(row(end.spp, end.seconds, stats.total_rays(), &image, estimate));
+                let estimate = film.error_estimate();
+                rows.push(row(end.spp, end.seconds, stats.total_rays(), &image, estimate.as_ref()));
                 if reference.is_none() {
                     images.push(image);
                 }
@@ -154,8 +166,13 @@ pub fn run(
         },
     )?;
     let seconds = summary.passes.last().map_or(summary.render_seconds, |p| p.seconds);
-    let estimate = summary.error.as_ref().map(|e| e.rel_mse);
-    let mut last = row(summary.spp, seconds, summary.stats.total_rays(), &summary.image, estimate);
+    let mut last = row(
+        summary.spp,
+        seconds,
+        summary.stats.total_rays(),
+        &summary.image,
+        summary.error.as_ref(),
+    );
     last.startup_seconds = summary.startup_seconds;
     if reference.is_none() {
         for (row, image) in rows.iter_mut().zip(&images) {
@@ -183,13 +200,13 @@ impl Convergence {
     /// The table as CSV, one header line and one line per render.
     pub fn csv(&self) -> String {
         let mut out = String::from(
-            "spp,render_seconds,startup_seconds,rays,ns_per_sample,rel_mse,rel_mse_estimate,estimate_over_rel_mse\n",
+            "spp,render_seconds,startup_seconds,rays,ns_per_sample,rel_mse,rel_mse_estimate,estimate_over_rel_mse,rel_mse_upper,claimed\n",
         );
         for r in &self.rows {
             let ratio = r.estimate.zip(r.rel_mse).map(|(e, t)| e / t);
             let _ = writeln!(
                 out,
-                "{},{:.4},{:.4},{},{:.2},{},{},{}",
+                "{},{:.4},{:.4},{},{:.2},{},{},{},{},{}",
                 r.spp,
                 r.render_seconds,
                 r.startup_seconds,
@@ -197,7 +214,9 @@ impl Convergence {
                 r.ns_per_sample,
                 field(r.rel_mse),
                 field(r.estimate),
-                ratio.map(|v| format!("{v:.3}")).unwrap_or_default()
+                ratio.map(|v| format!("{v:.3}")).unwrap_or_default(),
+                field(r.upper),
+                r.claimed
             );
         }
         out
@@ -340,6 +359,8 @@ mod tests {
             ns_per_sample: 50.0,
             rel_mse: Some(err),
             estimate: Some(est),
+            claimed: true,
+            upper: None,
         };
         Convergence {
             scene: PathBuf::from("a<b>.pbrt"),
@@ -355,10 +376,12 @@ mod tests {
         assert_eq!(lines.len(), 3);
         assert!(lines[0].starts_with("spp,render_seconds"));
         let f: Vec<&str> = lines[2].split(',').collect();
-        assert_eq!(f.len(), 8);
+        assert_eq!(f.len(), 10);
         assert_eq!(f[0], "8");
         assert_eq!(f[5].parse::<f64>().unwrap(), 1e-3);
         assert_eq!(f[7], "2.000");
+        assert_eq!(f[8], "", "no fireflies, no upper value");
+        assert_eq!(f[9], "true");
     }
 
     #[test]

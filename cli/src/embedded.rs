@@ -9,6 +9,7 @@ use crate::display::Display;
 use crate::error::Error;
 use farm_common::film::{
     checked_layout, FilmGeometry, FilmTile, Limits, PassEnd, PassPlan, PassStop, SampleRange,
+    SamplerKind,
 };
 use farm_common::ids::{JobId, TileAttempt, TileId, WorkerId};
 use farm_common::image::{self, ImageMetadata, RgbImage};
@@ -98,6 +99,8 @@ pub struct RenderSummary {
     pub passes: Vec<PassEnd>,
     /// Why a render in passes stopped.
     pub stopped: Option<PassStop>,
+    /// The scene's sampler, when known (not to `farm watch`).
+    pub sampler: Option<SamplerKind>,
 }
 
 /// The one worker of an embedded render.
@@ -344,14 +347,12 @@ pub fn render_parsed_with(
     let output = opts.output.clone().unwrap_or_else(|| PathBuf::from(&renderer.film.filename));
     let features = renderer.features.clone();
     let t = Instant::now();
-    let (mut geometry, spp) = (renderer.film.clone(), renderer.samples_per_pixel());
+    let (geometry, spp) = (renderer.film.clone(), renderer.samples_per_pixel());
     let kind = renderer.sampler.kind();
-    let mut passes =
-        PassPlan::for_job(kind, spp, opts.target_error, opts.time_limit, &mut geometry);
+    let mut passes = PassPlan::for_job(kind, spp, opts.target_error, opts.time_limit);
     if !opts.pass_totals.is_empty() {
-        let plan =
-            PassPlan { totals: opts.pass_totals.clone(), target_error: None, time_limit: None };
-        passes = Some(plan.laid_on(kind, &mut geometry));
+        let plan = PassPlan::new(spp, None, None);
+        passes = Some(PassPlan { totals: opts.pass_totals.clone(), ..plan }.for_sampler(kind));
     }
     if let Some(p) = &passes {
         p.check().map_err(Error::Usage)?;
@@ -389,6 +390,7 @@ pub fn render_parsed_with(
         warnings,
         passes: finished.passes,
         stopped: finished.stopped,
+        sampler: Some(kind),
     })
 }
 

@@ -1,7 +1,35 @@
 //! What a render in passes (`--target-error`, `--time-limit`) prints: each
-//! pass's samples, estimate and time, and why it stopped.
+//! pass's samples, estimate and time, and why it stopped; and what any
+//! render prints when its estimate is only a lower bound.
 
-use farm_common::film::{PassEnd, PassStop};
+use farm_common::film::{PassEnd, PassStop, SamplerKind};
+use farm_coordinator::estimate::Fireflies;
+
+/// Why a render's estimate cannot be trusted to within 2× with `sampler`,
+/// rendered in passes or in one: `None` when it can (measured within 2×
+/// of the true relMSE from 4 spp up on the shared scenes, fireflies aside).
+pub fn caveat(sampler: SamplerKind, in_passes: bool) -> Option<&'static str> {
+    match sampler {
+        SamplerKind::Sobol => Some(
+            "the estimate may be far off: pbrt-v3's Sobol' samples are not randomized, and their error falls unevenly from one sample count to the next, which no split of the samples can see",
+        ),
+        SamplerKind::MaxMinDist => Some(
+            "the estimate may be far too low: the maxmindist sampler puts the samples of every pixel at the same film positions, so aliasing of small bright features, which all of them share, does not show",
+        ),
+        SamplerKind::ZeroTwoSequence | SamplerKind::Stratified if !in_passes => Some(
+            "the estimate may be a few times too high: in one pass this sampler's two halves are not sets of their own; with --target-error or --time-limit it renders in passes, where they are",
+        ),
+        _ => None,
+    }
+}
+
+/// Why a render's estimate is a lower bound, and what it could be.
+pub fn fireflies(f: &Fireflies) -> String {
+    format!(
+        "the estimate is a lower bound: {} pixels are fireflies (one rare bright sample, far above the rest of the pixel and its neighbours), whose error it cannot measure; counting them the relMSE may be up to {:.3e}; the brightest is at ({}, {})",
+        f.pixels, f.rel_mse, f.brightest.0, f.brightest.1
+    )
+}
 
 /// The lines that describe a render's passes (none for a render without).
 pub fn describe(passes: &[PassEnd], stopped: Option<PassStop>, target: Option<f64>) -> Vec<String> {
@@ -35,6 +63,25 @@ pub fn describe(passes: &[PassEnd], stopped: Option<PassStop>, target: Option<f6
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn samplers_whose_estimate_is_not_trusted_say_why() {
+        assert!(caveat(SamplerKind::Halton, false).is_none());
+        assert!(caveat(SamplerKind::Random, false).is_none());
+        assert!(caveat(SamplerKind::Stratified, true).is_none());
+        assert!(caveat(SamplerKind::Stratified, false).unwrap().contains("passes"));
+        assert!(caveat(SamplerKind::Sobol, true).unwrap().contains("Sobol'"));
+        assert!(caveat(SamplerKind::MaxMinDist, true).unwrap().contains("maxmindist"));
+    }
+
+    #[test]
+    fn fireflies_say_the_estimate_is_a_lower_bound_and_where_they_are() {
+        let f = Fireflies { pixels: 209, rel_mse: 0.52, brightest: (168, 348) };
+        let line = fireflies(&f);
+        for part in ["lower bound", "209 pixels", "5.200e-1", "(168, 348)"] {
+            assert!(line.contains(part), "{line}");
+        }
+    }
 
     #[test]
     fn passes_are_listed_with_why_they_stopped() {

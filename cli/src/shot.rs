@@ -12,7 +12,7 @@ use crate::client::{
 use crate::embedded::RenderSummary;
 use crate::error::Error;
 use crate::frames::{FrameOutput, FrameScene};
-use farm_common::film::FilmGeometry;
+use farm_common::film::{FilmGeometry, SamplerKind};
 use farm_common::scene::Warning;
 use farm_proto::connect::Client;
 use farm_proto::v1;
@@ -63,6 +63,7 @@ struct Pending {
     job: u64,
     film_filename: String,
     features: Features,
+    sampler: SamplerKind,
     scene_name: String,
     warnings: Vec<Warning>,
     startup_seconds: f64,
@@ -168,6 +169,7 @@ async fn submit_frame(
         job,
         film_filename: film.filename,
         features: Features::of(&desc),
+        sampler: SamplerKind::of(&desc.sampler.name),
         scene_name: desc.name,
         warnings,
         startup_seconds: start.elapsed().as_secs_f64(),
@@ -195,6 +197,7 @@ fn summary(p: Pending, image: JobImage) -> FrameEnd {
         warnings: p.warnings,
         passes: image.passes,
         stopped: image.stopped,
+        sampler: Some(p.sampler),
     };
     FrameEnd::Done(Box::new(summary), p.out)
 }

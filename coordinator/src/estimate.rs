@@ -35,6 +35,9 @@
 
 use farm_common::film::{HalfImages, Pixel, TILE_SIZE};
 
+mod fireflies;
+pub use fireflies::{find as find_fireflies, Fireflies};
+
 /// Side of the blocks of [`ErrorEstimate::per_tile`].
 const BLOCK: usize = TILE_SIZE as usize;
 use farm_common::geometry::Bounds2i;
@@ -45,6 +48,25 @@ const EPSILON: f64 = 0.01;
 /// One pixel's estimated relMSE (averaged over its channels), or `None`
 /// when a half has no samples there.
 pub fn pixel_error(p: &Pixel, scale: f32, halves: HalfImages) -> Option<f64> {
+    pixel_error_against(p, scale, halves, Against::Value)
+}
+
+/// What a pixel's squared error is relative to.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Against {
+    /// Its value, as the reference comparison has it.
+    Value,
+    /// Its darker half: for a firefly, nearer its true value.
+    DarkerHalf,
+}
+
+/// [`pixel_error`], relative to the pixel's value or its darker half.
+pub fn pixel_error_against(
+    p: &Pixel,
+    scale: f32,
+    halves: HalfImages,
+    against: Against,
+) -> Option<f64> {
     let scale = f64::from(scale);
     let w = f64::from(p.weight);
     let w_b = f64::from(p.second_weight);
@@ -67,7 +89,11 @@ pub fn pixel_error(p: &Pixel, scale: f32, halves: HalfImages) -> Option<f64> {
         let a = (all - second) / w_a * scale;
         let b = second / w_b * scale;
         let d = a - b;
-        e += d * d * times / (full * full + EPSILON);
+        let level = match against {
+            Against::Value => full,
+            Against::DarkerHalf => a.min(b).max(0.0),
+        };
+        e += d * d * times / (level * level + EPSILON);
     }
     Some(e / (3.0 * g))
 }
@@ -75,6 +101,9 @@ pub fn pixel_error(p: &Pixel, scale: f32, halves: HalfImages) -> Option<f64> {
 /// An estimate of a render's relMSE from its two half-images.
 #[derive(Clone, Debug, PartialEq)]
 pub struct ErrorEstimate {
+    /// The render's fireflies, when it has enough that the estimate is
+    /// only a lower bound.
+    pub fireflies: Option<Fireflies>,
     /// Image width in pixels.
     pub width: usize,
     /// Image height in pixels.
@@ -119,11 +148,18 @@ impl ErrorEstimate {
             counted += 1;
         }
         (counted > 0).then(|| ErrorEstimate {
+            fireflies: None,
             width,
             height,
             per_pixel,
             rel_mse: sum / counted as f64,
         })
+    }
+
+    /// The estimate, counting the fireflies' error as [`Fireflies::rel_mse`]
+    /// does when there are fireflies: the value to decide by.
+    pub fn upper(&self) -> f64 {
+        self.fireflies.as_ref().map_or(self.rel_mse, |f| f.rel_mse.max(self.rel_mse))
     }
 
     /// The estimate averaged over each 16 × 16 block of the image, row-major

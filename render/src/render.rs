@@ -51,6 +51,19 @@ pub fn film_and_sampler(
     (film, filter, sampler, warnings)
 }
 
+/// The generator stream of a tile's pass that starts at sample `first` (not
+/// 0). PCG32 streams whose increments differ only in high bits share the
+/// low bits of their states, and their outputs correlate; the seed is
+/// mixed (pbrt-v4's `MixBits`) so that every bit of the increment differs.
+fn pass_stream(tile_seed: u64, first: u32) -> u64 {
+    let mut v = tile_seed ^ (u64::from(first) << 32 | u64::from(first));
+    v ^= v >> 31;
+    v = v.wrapping_mul(0x7fb5_d329_728e_a185);
+    v ^= v >> 27;
+    v = v.wrapping_mul(0x81da_def4_bc2d_d44d);
+    v ^ (v >> 33)
+}
+
 /// Everything needed to render any tile of one scene.
 #[derive(Debug)]
 pub struct Renderer {
@@ -204,7 +217,7 @@ impl Renderer {
         let mut sampler = match range {
             // Each pass of a sampler with state draws on a stream of its own.
             Some(r) if !stateless && r.first > 0 => {
-                self.sampler.with_spp(r.len()).clone_with_seed(seed ^ (u64::from(r.first) << 32))
+                self.sampler.with_spp(r.len()).clone_with_seed(pass_stream(seed, r.first))
             }
             Some(r) if !stateless => self.sampler.with_spp(r.len()).clone_with_seed(seed),
             _ => self.sampler.clone_with_seed(seed),
@@ -239,7 +252,8 @@ impl Renderer {
                 let cs = sampler.camera_sample_for(pixel, self.camera_dims);
                 let offset = cs.p_film - Vec2::new(pixel.x as f32, pixel.y as f32);
                 let second_half = match range {
-                    Some(r) => index >= r.second_from,
+                    Some(r) if !r.own_halves => index >= r.second_from,
+                    Some(r) => halves.is_second(index - r.first, offset),
                     None => halves.is_second(index, offset),
                 };
                 let (weight, ray) = if self.differentials {

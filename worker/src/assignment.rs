@@ -66,6 +66,7 @@ pub async fn render_tile(
         first: r.first_sample,
         end: r.end_sample,
         second_from: r.second_from,
+        own_halves: r.own_halves,
     });
     if let Some(Err(why)) = samples.map(|r| r.check(renderer.samples_per_pixel())) {
         return failure(why, false);

@@ -93,7 +93,11 @@ pub fn run(args: &ConvergeArgs) -> ExitCode {
                 r.rays as f64 / 1e6,
                 r.ns_per_sample,
                 num(r.rel_mse),
-                num(r.estimate),
+                match r.upper {
+                    // A lower bound (the render has fireflies).
+                    Some(_) => format!(">={}", num(r.estimate)),
+                    None => num(r.estimate),
+                },
                 ratio.unwrap_or_else(|| "-".into())
             );
         }

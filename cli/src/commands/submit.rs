@@ -375,6 +375,9 @@ pub fn finish(
     if !args.quiet {
         let secs = summary.render_seconds.max(1e-9);
         let error = match &summary.error {
+            Some(e) if e.fireflies.is_some() => {
+                format!(", estimated relMSE at least {:.3e}", e.rel_mse)
+            }
             Some(e) => format!(", estimated relMSE {:.3e}", e.rel_mse),
             None => String::new(),
         };
@@ -389,6 +392,14 @@ pub fn finish(
             s.total_rays() as f64 / 1e6,
             s.total_rays() as f64 / secs / 1e6,
         );
+        if let Some(f) = summary.error.as_ref().and_then(|e| e.fireflies.as_ref()) {
+            say!("{}", crate::passes::fireflies(f));
+        }
+        let in_passes = !summary.passes.is_empty();
+        let caveat = summary.sampler.and_then(|k| crate::passes::caveat(k, in_passes));
+        if let Some(why) = caveat.filter(|_| summary.error.is_some()) {
+            say!("{why}");
+        }
         for line in crate::passes::describe(&summary.passes, summary.stopped, args.target_error) {
             say!("{line}");
         }

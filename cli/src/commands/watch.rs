@@ -69,6 +69,7 @@ pub async fn run(args: WatchArgs) -> ExitCode {
         warnings: Vec::new(),
         passes: done.passes,
         stopped: done.stopped,
+        sampler: None,
     };
     if let Err(e) = embedded::write(&summary) {
         return super::submit::fail(&e);

@@ -35,7 +35,14 @@ impl SamplerKind {
         matches!(self, SamplerKind::Halton | SamplerKind::Sobol)
     }
 
-    /// The kind a `Sampler` directive names, and whether the name was known.
+    /// The sampler a scene's `Sampler` directive names (Halton when it
+    /// names none, or one pbrt-v3 does not have).
+    pub fn of(name: &str) -> SamplerKind {
+        SamplerKind::named(name).0
+    }
+
+    /// The sampler `name` names, and whether pbrt-v3 has one of that name
+    /// (otherwise Halton).
     pub fn named(name: &str) -> (SamplerKind, bool) {
         match name {
             "halton" => (SamplerKind::Halton, true),

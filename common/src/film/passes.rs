@@ -18,7 +18,7 @@
 //! drawn before it; their passes are each a set of their own size, drawn
 //! on a stream of their own, as a one-shot render of that size would be.
 
-use super::{FilmGeometry, HalfImages, SamplerKind};
+use super::SamplerKind;
 use serde::{Deserialize, Serialize};
 
 /// Samples per pixel of a plan's first pass.
@@ -39,6 +39,9 @@ pub struct SampleRange {
     pub end: u32,
     /// The first index of the second half.
     pub second_from: u32,
+    /// Whether the sampler's own halves (`Halves`) split the samples
+    /// instead: the first pass of a sampler with state, one set of its own.
+    pub own_halves: bool,
 }
 
 impl SampleRange {
@@ -82,6 +85,9 @@ pub struct PassPlan {
     /// Stop after the first pass that ends this many seconds or more after
     /// the render started.
     pub time_limit: Option<f64>,
+    /// Whether the first pass splits its samples by the sampler's own
+    /// halves (a sampler with state: its first pass is one set).
+    pub own_first_halves: bool,
 }
 
 /// Why a planned render stopped where it did.
@@ -107,42 +113,30 @@ impl PassPlan {
             n = n.saturating_mul(2);
         }
         totals.push(cap);
-        PassPlan { totals, target_error, time_limit }
+        PassPlan { totals, target_error, time_limit, own_first_halves: false }
     }
 
     /// The plan of a job of `spp` samples per pixel of sampler `kind` that
     /// stops at `target_error` or `time_limit`; `None` when neither is
-    /// given (the job renders in one pass). A sampler with state renders
-    /// each pass as a set of its own, independent of the others, so the
-    /// film's estimate treats its halves as independent
-    /// (`geometry.half_images`), and its passes start at half
-    /// [`FIRST_PASS_SPP`], so that at [`FIRST_PASS_SPP`] already the halves
-    /// are two sets.
+    /// given (the job renders in one pass).
     pub fn for_job(
         kind: SamplerKind,
         spp: u32,
         target_error: Option<f64>,
         time_limit: Option<f64>,
-        geometry: &mut FilmGeometry,
     ) -> Option<PassPlan> {
         if target_error.is_none() && time_limit.is_none() {
             return None;
         }
-        Some(PassPlan::new(spp, target_error, time_limit).laid_on(kind, geometry))
+        Some(PassPlan::new(spp, target_error, time_limit).for_sampler(kind))
     }
 
-    /// The plan, for a job of sampler `kind` on `geometry`: see
-    /// [`PassPlan::for_job`].
-    pub fn laid_on(mut self, kind: SamplerKind, geometry: &mut FilmGeometry) -> PassPlan {
-        if !kind.continues_sequence() {
-            geometry.half_images = HalfImages::Independent;
-            // Its first pass's halves would be parts of one set: a first
-            // pass of half the samples makes the second pass's halves two
-            // independent sets.
-            if self.totals.len() > 1 && self.totals[0] == FIRST_PASS_SPP {
-                self.totals.insert(0, FIRST_PASS_SPP / 2);
-            }
-        }
+    /// The plan, for sampler `kind`. A sampler with state renders each pass
+    /// as a set of its own: its first pass splits by the sampler's own
+    /// halves, as a one-shot render does, and the film treats the later
+    /// passes' halves as independent sets (`Film::next_pass`).
+    pub fn for_sampler(mut self, kind: SamplerKind) -> PassPlan {
+        self.own_first_halves = !kind.continues_sequence();
         self
     }
 
@@ -170,7 +164,7 @@ impl PassPlan {
         let end = self.totals[pass];
         let first = if pass == 0 { 0 } else { self.totals[pass - 1] };
         let second_from = if pass == 0 { end / 2 } else { first };
-        SampleRange { first, end, second_from }
+        SampleRange { first, end, second_from, own_halves: pass == 0 && self.own_first_halves }
     }
 
     /// Whether to stop after pass `pass`, given the estimate it left and
@@ -193,7 +187,9 @@ impl PassPlan {
 pub struct PassEnd {
     /// Samples per pixel reached.
     pub spp: u32,
-    /// The estimated relMSE after it, if there is one.
+    /// The estimated relMSE after it, if there is one: the value the plan
+    /// decides by, which counts the error of fireflies when the render has
+    /// them (the estimate is then a lower bound, and this an upper value).
     pub estimate: Option<f64>,
     /// Seconds from the render's start to the pass's end.
     pub seconds: f64,
@@ -227,9 +223,12 @@ mod tests {
     #[test]
     fn each_later_pass_is_the_second_half_of_the_render_it_completes() {
         let p = PassPlan::new(32, None, None);
-        assert_eq!(p.range(0), SampleRange { first: 0, end: 4, second_from: 2 });
-        assert_eq!(p.range(1), SampleRange { first: 4, end: 8, second_from: 4 });
-        assert_eq!(p.range(3), SampleRange { first: 16, end: 32, second_from: 16 });
+        assert_eq!(p.range(0), SampleRange { first: 0, end: 4, second_from: 2, own_halves: false });
+        assert_eq!(p.range(1), SampleRange { first: 4, end: 8, second_from: 4, own_halves: false });
+        assert_eq!(
+            p.range(3),
+            SampleRange { first: 16, end: 32, second_from: 16, own_halves: false }
+        );
         let covered: u32 = (0..p.totals.len()).map(|k| p.range(k).len()).sum();
         assert_eq!(covered, 32);
     }
@@ -248,31 +247,26 @@ mod tests {
     }
 
     #[test]
-    fn a_sampler_with_state_starts_at_two_samples_and_has_independent_halves() {
-        use crate::geometry::{Bounds2i, Point2i, Vec2};
-        let b = Bounds2i::new(Point2i::new(0, 0), Point2i::new(8, 8));
-        let geometry = || FilmGeometry::new(b.max, b, Vec2::splat(0.5), 1.0, 1e9, "x".into(), 35.0);
-        for (kind, first, halves) in [
-            (SamplerKind::Halton, 4, HalfImages::Sequence),
-            (SamplerKind::Sobol, 4, HalfImages::Sequence),
-            (SamplerKind::Stratified, 2, HalfImages::Independent),
-            (SamplerKind::Random, 2, HalfImages::Independent),
+    fn a_sampler_with_state_splits_its_first_pass_by_its_own_halves() {
+        for (kind, own) in [
+            (SamplerKind::Halton, false),
+            (SamplerKind::Sobol, false),
+            (SamplerKind::Stratified, true),
+            (SamplerKind::Random, true),
         ] {
-            let mut g = geometry();
-            g.half_images = HalfImages::of(kind);
-            let p = PassPlan::for_job(kind, 64, Some(1e-3), None, &mut g).unwrap();
-            assert_eq!((p.totals[0], g.half_images), (first, halves), "{kind:?}");
-            assert_eq!(*p.totals.last().unwrap(), 64);
+            let p = PassPlan::for_job(kind, 64, Some(1e-3), None).unwrap();
+            assert_eq!((p.range(0).own_halves, p.range(1).own_halves), (own, false), "{kind:?}");
+            assert_eq!(p.totals, [4, 8, 16, 32, 64]);
         }
-        let mut g = geometry();
-        assert_eq!(PassPlan::for_job(SamplerKind::Random, 64, None, None, &mut g), None);
-        assert_eq!(g.half_images, HalfImages::Spread, "no passes, no change");
+        assert_eq!(PassPlan::for_job(SamplerKind::Random, 64, None, None), None);
     }
 
     #[test]
     fn plans_and_ranges_from_the_wire_are_checked() {
         let bad = |totals: Vec<u32>, e: Option<f64>, s: Option<f64>| {
-            PassPlan { totals, target_error: e, time_limit: s }.check().is_err()
+            PassPlan { totals, target_error: e, time_limit: s, own_first_halves: false }
+                .check()
+                .is_err()
         };
         assert!(bad(vec![], None, None));
         assert!(bad(vec![0, 4], None, None));
@@ -281,7 +275,8 @@ mod tests {
         assert!(bad(vec![4, 8], Some(-1.0), None));
         assert!(bad(vec![4, 8], None, Some(f64::INFINITY)));
         assert!(!bad(vec![4, 8], Some(0.0), Some(0.0)));
-        let r = |first, end, second_from| SampleRange { first, end, second_from };
+        let r =
+            |first, end, second_from| SampleRange { first, end, second_from, own_halves: false };
         assert!(r(0, 4, 2).check(4).is_ok());
         assert!(r(0, 5, 2).check(4).is_err());
         assert!(r(4, 4, 4).check(8).is_err());

@@ -4,8 +4,8 @@
 //! they were, or in what order results came back.
 
 use crate::error::Error;
-use crate::estimate::{pixel_error, ErrorEstimate};
-use farm_common::film::{resolve, FilmGeometry, FilmTile};
+use crate::estimate::{find_fireflies, pixel_error, ErrorEstimate};
+use farm_common::film::{resolve, FilmGeometry, FilmTile, HalfImages};
 use farm_common::geometry::{Bounds2i, Point2i};
 use farm_common::ids::TileId;
 use farm_common::image::RgbImage;
@@ -56,6 +56,8 @@ pub struct Film {
     finals: Vec<Bounds2i>,
     /// False from [`Film::next_pass`] until the pass's first tile.
     pass_started: bool,
+    /// How the halves of the pass under way relate.
+    halves: HalfImages,
 }
 
 /// The error estimate of the merged tiles, brought up to date a tile at a
@@ -73,6 +75,7 @@ struct Running {
 impl Film {
     /// An empty film.
     pub fn new(geometry: FilmGeometry) -> Self {
+        let geometry_halves = geometry.half_images;
         let sums = Sums::new(geometry.cropped_pixel_bounds);
         let crop = geometry.cropped_pixel_bounds;
         let finals = (0..geometry.tile_count())
@@ -87,6 +90,7 @@ impl Film {
             running: Running::default(),
             finals,
             pass_started: true,
+            halves: geometry_halves,
         }
     }
 
@@ -125,11 +129,18 @@ impl Film {
     /// The second half and the estimate are cleared when the next pass's
     /// first tile comes in, so until then [`Film::error_estimate`] is still
     /// the finished pass's.
+    ///
+    /// After the first pass of a sampler with state, whose halves spread
+    /// over one set's strata, each pass is a set of its own: the halves are
+    /// independent sets from then on.
     pub fn next_pass(&mut self) {
         debug_assert!(self.is_complete() && self.pending.is_empty());
         self.next = 0;
         self.pending.clear();
         self.pass_started = false;
+        if self.halves == HalfImages::Spread {
+            self.halves = HalfImages::Independent;
+        }
     }
 
     /// Clears the second half and the estimate of the pass before, once.
@@ -214,13 +225,29 @@ impl Film {
     pub fn error_estimate(&mut self) -> Option<ErrorEstimate> {
         self.running_estimate()?;
         let b = self.geometry.cropped_pixel_bounds;
+        let (width, height) = (b.width() as usize, b.height() as usize);
         let r = &self.running;
+        let fireflies = find_fireflies(
+            width,
+            height,
+            |i| self.sums.pixel(i),
+            self.geometry.scale,
+            self.halves,
+            (r.sum, r.counted),
+        );
         Some(ErrorEstimate {
-            width: b.width() as usize,
-            height: b.height() as usize,
+            fireflies,
+            width,
+            height,
             per_pixel: r.map.clone(),
             rel_mse: r.sum / r.counted as f64,
         })
+    }
+
+    /// The estimate a render in passes decides by after a pass:
+    /// [`ErrorEstimate::upper`], which counts fireflies' error.
+    pub fn pass_estimate(&mut self) -> Option<f64> {
+        self.error_estimate().map(|e| e.upper())
     }
 
     /// The estimate of [`Film::error_estimate`] over the pixels whose sums
@@ -232,7 +259,7 @@ impl Film {
     pub fn running_estimate(&mut self) -> Option<f64> {
         let g = &self.geometry;
         let b = g.cropped_pixel_bounds;
-        let samples = g.half_images;
+        let samples = self.halves;
         let r = &mut self.running;
         if r.map.len() != b.area() {
             r.map = vec![0.0; b.area()];

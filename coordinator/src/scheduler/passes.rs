@@ -20,7 +20,7 @@ impl Scheduler {
         let Some(plan) = j.spec.passes.as_ref() else { return self.finish(job, out) };
         let Some(film) = j.film.as_mut() else { return };
         let pass = j.pass as usize;
-        let estimate = film.running_estimate();
+        let estimate = film.pass_estimate();
         let seconds = j.started.map_or(0.0, |s| now.duration_since(s).as_secs_f64());
         let spp = plan.totals[pass];
         j.pass_ends.push(PassEnd { spp, estimate, seconds });

@@ -47,7 +47,7 @@ impl Scheduler {
                 while pass > job.pass && film.is_complete() && job.has_pass_after() {
                     job.pass_ends.push(PassEnd {
                         spp: job.samples().map_or(job.spec.spp, |r| r.end),
-                        estimate: film.running_estimate(),
+                        estimate: film.pass_estimate(),
                         seconds: 0.0,
                     });
                     film.next_pass();

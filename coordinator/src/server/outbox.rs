@@ -10,7 +10,7 @@ use crate::scheduler::{Assignment, JobUpdate, Outbox, Record};
 use crate::state::{Command, Journal};
 use farm_common::ids::{JobId, TileAttempt, WorkerId};
 use farm_common::stats::RayStats;
-use farm_proto::convert::{image_chunks, ImageFacts};
+use farm_proto::convert::{image_chunks, FireflyFacts, ImageFacts};
 use farm_proto::v1::{self, coordinator_message, job_event};
 use prost::Message;
 use std::collections::HashMap;
@@ -71,6 +71,13 @@ pub(crate) fn job_events(update: &JobUpdate) -> Vec<v1::JobEvent> {
                 stats: f.stats,
                 passes: f.passes.clone(),
                 stopped: f.stopped,
+                fireflies: f.error.as_ref().and_then(|e| e.fireflies.as_ref()).map(|f| {
+                    FireflyFacts {
+                        pixels: f.pixels as u32,
+                        rel_mse: f.rel_mse,
+                        brightest: f.brightest,
+                    }
+                }),
             };
             let error = f.error.as_ref().map(|e| (e.per_pixel.as_slice(), e.rel_mse));
             image_chunks(&f.image, error, &facts)
@@ -116,6 +123,7 @@ impl Outbox for GrpcOutbox {
                     first_sample: r.first,
                     end_sample: r.end,
                     second_from: r.second_from,
+                    own_halves: r.own_halves,
                 }),
             })),
         };

@@ -67,12 +67,11 @@ pub(super) async fn job_spec(
         .inspect_err(|e| warn!(error = %e, "job refused"))
         .map_err(Error::from)?;
     let spp = layout.spp();
-    let mut geometry = layout.geometry;
+    let geometry = layout.geometry;
     if geometry.cropped_pixel_bounds.is_empty() {
         return Err(Error::EmptyFilm.into());
     }
-    let passes =
-        PassPlan::for_job(layout.sampler, spp, r.target_error, r.time_limit, &mut geometry);
+    let passes = PassPlan::for_job(layout.sampler, spp, r.target_error, r.time_limit);
     if let Some(p) = &passes {
         p.check().map_err(Error::BadPasses)?;
         // The journal keys a tile of a job in passes by pass × tiles + tile.

@@ -25,6 +25,20 @@ pub struct ImageFacts {
     pub passes: Vec<PassEnd>,
     /// Why a render in passes stopped.
     pub stopped: Option<PassStop>,
+    /// The render's fireflies, when its estimate is a lower bound.
+    pub fireflies: Option<FireflyFacts>,
+}
+
+/// A render's fireflies: how many, the relMSE counting their error, and
+/// the brightest (image coordinates).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct FireflyFacts {
+    /// How many pixels are fireflies.
+    pub pixels: u32,
+    /// The estimate counting their error.
+    pub rel_mse: f64,
+    /// The brightest.
+    pub brightest: (u32, u32),
 }
 
 /// A pass's end on the wire.
@@ -103,6 +117,12 @@ pub fn image_chunks(
                 stats: Some(v1::RayStats::from(&facts.stats)),
                 passes: facts.passes.iter().map(v1::PassEnd::from).collect(),
                 stopped: stop_name(facts.stopped).to_string(),
+                fireflies: facts.fireflies.map(|f| v1::Fireflies {
+                    pixels: f.pixels,
+                    estimated_rel_mse: f.rel_mse,
+                    x: f.brightest.0,
+                    y: f.brightest.1,
+                }),
             }
         })
         .collect()
@@ -165,6 +185,11 @@ impl ImageAssembler {
             stats: img.stats.as_ref().map(RayStats::from).unwrap_or_default(),
             passes: img.passes.iter().map(PassEnd::from).collect(),
             stopped: stop_from_name(&img.stopped),
+            fireflies: img.fireflies.map(|f| FireflyFacts {
+                pixels: f.pixels,
+                rel_mse: f.estimated_rel_mse,
+                brightest: (f.x, f.y),
+            }),
         };
         Ok(Some(AssembledImage { image, error, facts }))
     }
@@ -194,6 +219,7 @@ mod tests {
                 PassEnd { spp: 8, estimate: None, seconds: 1.5 },
             ],
             stopped: Some(PassStop::TargetReached),
+            fireflies: Some(FireflyFacts { pixels: 12, rel_mse: 0.5, brightest: (3, 4) }),
         };
         let chunks = image_chunks(&img, Some((&map, 2e-3)), &facts);
         assert!(chunks.len() > 1, "{} chunks", chunks.len());
