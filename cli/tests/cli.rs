@@ -332,3 +332,45 @@ fn a_closed_output_pipe_is_not_a_panic() {
     assert!(!stderr.contains("panicked"), "{stderr}");
     assert_eq!(out.status.code(), Some(0), "{stderr}");
 }
+
+/// The summary says when the estimate is not to be trusted, and why: a
+/// lower bound with fireflies (here tiny bright stars that few samples
+/// find), a caveat for maxmindist samples, nothing for Halton; and a render
+/// in passes lists them and says why it stopped.
+#[test]
+fn the_summary_says_when_the_estimate_is_not_to_be_trusted() {
+    let dir = temp_dir("caveats");
+    let mut stars = String::from(
+        "LookAt 0 0 0  0 0 1  0 1 0\nCamera \"perspective\" \"float fov\" [ 40 ]\n\
+         Film \"image\" \"integer xresolution\" [ 64 ] \"integer yresolution\" [ 64 ]\n\
+         Sampler \"halton\"\nWorldBegin\n",
+    );
+    for i in 0..200 {
+        let (x, y) = ((i * 37 % 61) as f32 / 61.0 - 0.5, (i * 53 % 59) as f32 / 59.0 - 0.5);
+        stars.push_str(&format!(
+            "AttributeBegin\n Translate {} {} 10\n AreaLightSource \"diffuse\" \"rgb L\" [ 1000 1000 1000 ]\n \
+             Shape \"sphere\" \"float radius\" [ 0.01 ]\nAttributeEnd\n",
+            x * 6.0,
+            y * 6.0
+        ));
+    }
+    let path = dir.join("stars.pbrt");
+    std::fs::write(&path, stars).unwrap();
+    let out = dir.join("stars.exr");
+    let run = |scene: &Path, args: &[&str]| {
+        let mut all = vec!["submit", "-o", out.to_str().unwrap(), scene.to_str().unwrap()];
+        all.extend_from_slice(args);
+        farm_ok(all)
+    };
+    let said = run(&path, &["--spp", "8"]);
+    assert!(said.contains("estimated relMSE at least"), "{said}");
+    assert!(said.contains("the estimate is a lower bound") && said.contains("fireflies"), "{said}");
+    let example = Path::new(env!("CARGO_MANIFEST_DIR")).join("../scenes/example.pbrt");
+    let said = run(&example, &["--spp", "4", "--sampler", "maxmindist"]);
+    assert!(said.contains("may be far too low"), "{said}");
+    let said = run(&example, &["--spp", "4"]);
+    assert_eq!(said.lines().count(), 1, "no caveat for Halton: {said}");
+    let said = run(&example, &["--spp", "16", "--target-error", "1e9"]);
+    assert!(said.contains("pass    spp"), "{said}");
+    assert!(said.contains("stopped: the estimate is at most the target error"), "{said}");
+}

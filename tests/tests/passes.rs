@@ -47,33 +47,39 @@ fn render(
 }
 
 /// Every channel of `a` and `b` within `rel` of each other; returns how
-/// many pixels are bit-identical.
-fn within(a: &RgbImage, b: &RgbImage, rel: f64, what: &str) -> usize {
+/// many pixels are bit-identical and the largest relative difference.
+fn within(a: &RgbImage, b: &RgbImage, rel: f64, what: &str) -> (usize, f64) {
     assert_eq!((a.width, a.height), (b.width, b.height));
-    let mut same = 0;
+    let (mut same, mut worst) = (0, 0.0f64);
     for (i, (p, q)) in a.pixels.iter().zip(&b.pixels).enumerate() {
         same += usize::from(p.map(f32::to_bits) == q.map(f32::to_bits));
         for c in 0..3 {
             let (x, y) = (f64::from(p[c]), f64::from(q[c]));
+            let size = x.abs().max(y.abs());
             assert!(
-                (x - y).abs() <= rel * x.abs().max(y.abs()) + 1e-30,
+                (x - y).abs() <= rel * size + 1e-30,
                 "{what}: pixel {i} channel {c}: {x} against {y}, over the bound {rel:e}"
             );
+            if size > 0.0 {
+                worst = worst.max((x - y).abs() / size);
+            }
         }
     }
-    same
+    (same, worst)
 }
 
 #[test]
 fn four_passes_give_the_one_shot_image_within_the_float_bound() {
-    let spp = 32;
-    for sampler in ["halton", "sobol"] {
+    // Halton at 11 spp renders in 4 passes; Sobol' rounds up to 16, in 5.
+    for (sampler, spp, reached) in
+        [("halton", 11, &[4, 6, 8, 11][..]), ("sobol", 16, &[4, 6, 8, 11, 16][..])]
+    {
         let path = scene(sampler);
-        // A target of 0 is never reached: passes of 4, 8, 16 and 32 samples.
+        // A target of 0 is never reached: every pass renders.
         let passes = render(&path, spp, Some(0.0), None);
         let once = render(&path, spp, None, None);
-        let reached: Vec<u32> = passes.passes.iter().map(|p| p.spp).collect();
-        assert_eq!(reached, [4, 8, 16, 32], "{sampler}");
+        let ends: Vec<u32> = passes.passes.iter().map(|p| p.spp).collect();
+        assert_eq!(ends, reached, "{sampler}");
         assert_eq!(passes.stopped, Some(PassStop::Cap));
         assert_eq!(passes.stats.camera_rays, once.stats.camera_rays, "{sampler}: the same samples");
         assert_eq!(passes.stats.total_rays(), once.stats.total_rays(), "{sampler}: the same rays");
@@ -84,13 +90,16 @@ fn four_passes_give_the_one_shot_image_within_the_float_bound() {
         let terms = u64::from(spp) * 25;
         let sum = 1.0 + 1e-6;
         let rel = 2.0 * sum_order_bound(terms, sum) + f64::from(f32::EPSILON);
-        let same = within(&passes.image, &once.image, rel, sampler);
+        let (same, worst) = within(&passes.image, &once.image, rel, sampler);
         eprintln!(
-            "{sampler}: {same} of {} pixels bit-identical; bound {rel:.2e}",
+            "{sampler}: {} passes; {same} of {} pixels bit-identical; largest difference {worst:.2e} of the value, bound {rel:.2e}",
+            ends.len(),
             once.image.pixels.len()
         );
+        // Their estimates split the samples differently (the last pass
+        // against the rest; the first half against the second).
         let (e1, e2) = (passes.error.unwrap().rel_mse, once.error.unwrap().rel_mse);
-        assert!((e1 - e2).abs() <= 1e-3 * e2, "{sampler}: estimates {e1} and {e2}");
+        assert!((0.5..=2.0).contains(&(e1 / e2)), "{sampler}: estimates {e1} and {e2}");
     }
 }
 
@@ -111,10 +120,15 @@ fn a_sampler_with_state_renders_its_first_pass_as_a_one_shot_render() {
         // Its halves too: the estimates are the same.
         assert_eq!(first.error.map(|e| e.rel_mse), once.error.map(|e| e.rel_mse), "{sampler}");
         // Later passes draw on streams of their own: 8 samples in passes
-        // of 4 and 4 are not the one-shot 8-sample set, but as good.
+        // after the first are not the one-shot 8-sample set, but as good.
         let passes = render(&path, 8, Some(0.0), None);
         let reached: Vec<u32> = passes.passes.iter().map(|p| p.spp).collect();
-        assert_eq!(reached, [4, 8], "{sampler}");
+        let want: &[u32] = if sampler.ends_with("sequence") || sampler == "maxmindist" {
+            &[4, 8]
+        } else {
+            &[4, 6, 8]
+        };
+        assert_eq!(reached, want, "{sampler}");
         let eight = render(&path, 8, None, None);
         assert!(bits(&passes.image) != bits(&eight.image), "{sampler}");
     }
@@ -126,7 +140,7 @@ fn a_time_limit_stops_after_the_pass_that_ends_past_it() {
     let r = render(&path, 64, None, Some(0.0));
     assert_eq!((r.spp, r.stopped, r.passes.len()), (4, Some(PassStop::TimeLimit), 1));
     let r = render(&path, 64, None, Some(1e9));
-    assert_eq!((r.spp, r.stopped, r.passes.len()), (64, Some(PassStop::Cap), 5));
+    assert_eq!((r.spp, r.stopped, r.passes.len()), (64, Some(PassStop::Cap), 9));
     let secs: Vec<f64> = r.passes.iter().map(|p| p.seconds).collect();
     assert!(secs.windows(2).all(|w| w[0] <= w[1]), "{secs:?}");
 }

@@ -103,14 +103,20 @@ pub enum PassStop {
 
 impl PassPlan {
     /// The plan for a job of `cap` samples per pixel: [`FIRST_PASS_SPP`]
-    /// (or `cap`, if fewer), then doubling, then `cap`.
+    /// (or `cap`, if fewer), then about √2 times as many each pass (4, 6,
+    /// 8, 11, 16, 23, 32, …: every other count a power of two), then `cap`.
+    /// A pass's error is then at most about twice the next one's, so a
+    /// render that stops at its target's first pass does not overshoot it
+    /// far.
     pub fn new(cap: u32, target_error: Option<f64>, time_limit: Option<f64>) -> PassPlan {
         let cap = cap.max(1);
         let mut totals = Vec::new();
-        let mut n = FIRST_PASS_SPP.min(cap);
-        while n < cap {
-            totals.push(n);
-            n = n.saturating_mul(2);
+        let mut n = u64::from(FIRST_PASS_SPP.min(cap));
+        while n < u64::from(cap) {
+            totals.push(n as u32);
+            let between = (n as f64 * std::f64::consts::SQRT_2).round() as u64;
+            totals.extend(Some(between).filter(|&b| b > n && b < u64::from(cap)).map(|b| b as u32));
+            n *= 2;
         }
         totals.push(cap);
         PassPlan { totals, target_error, time_limit, own_first_halves: false }
@@ -135,8 +141,14 @@ impl PassPlan {
     /// as a set of its own: its first pass splits by the sampler's own
     /// halves, as a one-shot render does, and the film treats the later
     /// passes' halves as independent sets (`Film::next_pass`).
+    /// The (0,2)-sequence and maxmindist samplers take a power of two
+    /// samples a set, so their passes end at powers of two (and the cap).
     pub fn for_sampler(mut self, kind: SamplerKind) -> PassPlan {
         self.own_first_halves = !kind.continues_sequence();
+        if matches!(kind, SamplerKind::ZeroTwoSequence | SamplerKind::MaxMinDist) {
+            let cap = self.totals.last().copied();
+            self.totals.retain(|&n| n.is_power_of_two() || Some(n) == cap);
+        }
         self
     }
 
@@ -210,9 +222,14 @@ mod tests {
     use super::*;
 
     #[test]
-    fn passes_start_at_four_samples_and_double_up_to_the_cap() {
-        assert_eq!(PassPlan::new(64, None, None).totals, vec![4, 8, 16, 32, 64]);
-        assert_eq!(PassPlan::new(100, None, None).totals, vec![4, 8, 16, 32, 64, 100]);
+    fn passes_start_at_four_samples_and_grow_by_about_root_two_up_to_the_cap() {
+        assert_eq!(PassPlan::new(64, None, None).totals, vec![4, 6, 8, 11, 16, 23, 32, 45, 64]);
+        assert_eq!(
+            PassPlan::new(100, None, None).totals,
+            vec![4, 6, 8, 11, 16, 23, 32, 45, 64, 91, 100]
+        );
+        assert_eq!(PassPlan::new(11, None, None).totals, vec![4, 6, 8, 11]);
+        assert_eq!(PassPlan::new(5, None, None).totals, vec![4, 5]);
         assert_eq!(PassPlan::new(2, None, None).totals, vec![2]);
         assert_eq!(PassPlan::new(0, None, None).totals, vec![1]);
         let p = PassPlan::new(u32::MAX, None, None);
@@ -224,10 +241,10 @@ mod tests {
     fn each_later_pass_is_the_second_half_of_the_render_it_completes() {
         let p = PassPlan::new(32, None, None);
         assert_eq!(p.range(0), SampleRange { first: 0, end: 4, second_from: 2, own_halves: false });
-        assert_eq!(p.range(1), SampleRange { first: 4, end: 8, second_from: 4, own_halves: false });
+        assert_eq!(p.range(1), SampleRange { first: 4, end: 6, second_from: 4, own_halves: false });
         assert_eq!(
-            p.range(3),
-            SampleRange { first: 16, end: 32, second_from: 16, own_halves: false }
+            p.range(6),
+            SampleRange { first: 23, end: 32, second_from: 23, own_halves: false }
         );
         let covered: u32 = (0..p.totals.len()).map(|k| p.range(k).len()).sum();
         assert_eq!(covered, 32);
@@ -240,7 +257,7 @@ mod tests {
         assert_eq!(p.stop_after(0, None, 1.0), None);
         assert_eq!(p.stop_after(1, Some(1e-3), 1.0), Some(PassStop::TargetReached));
         assert_eq!(p.stop_after(1, Some(5e-3), 10.0), Some(PassStop::TimeLimit));
-        assert_eq!(p.stop_after(4, Some(5e-3), 1.0), Some(PassStop::Cap));
+        assert_eq!(p.stop_after(8, Some(5e-3), 1.0), Some(PassStop::Cap));
         // A target of 0 is never reached before the cap (a zero estimate aside).
         let all = PassPlan::new(64, Some(0.0), None);
         assert_eq!(all.stop_after(2, Some(1e-9), 1.0), None);
@@ -256,7 +273,11 @@ mod tests {
         ] {
             let p = PassPlan::for_job(kind, 64, Some(1e-3), None).unwrap();
             assert_eq!((p.range(0).own_halves, p.range(1).own_halves), (own, false), "{kind:?}");
-            assert_eq!(p.totals, [4, 8, 16, 32, 64]);
+            assert_eq!(p.totals, [4, 6, 8, 11, 16, 23, 32, 45, 64]);
+        }
+        for kind in [SamplerKind::ZeroTwoSequence, SamplerKind::MaxMinDist] {
+            let p = PassPlan::for_job(kind, 64, Some(1e-3), None).unwrap();
+            assert_eq!(p.totals, [4, 8, 16, 32, 64], "{kind:?}: powers of two");
         }
         assert_eq!(PassPlan::for_job(SamplerKind::Random, 64, None, None), None);
     }

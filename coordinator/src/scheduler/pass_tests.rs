@@ -24,6 +24,11 @@ fn render(g: &FilmGeometry, tile: TileId) -> FilmTile {
     t
 }
 
+/// Passes of 4, 8 and 16 samples.
+fn three(target_error: Option<f64>, time_limit: Option<f64>) -> PassPlan {
+    PassPlan { totals: vec![4, 8, 16], ..PassPlan::new(16, target_error, time_limit) }
+}
+
 fn in_passes(plan: &PassPlan) -> JobSpec {
     JobSpec { spp: *plan.totals.last().unwrap(), passes: Some(plan.clone()), ..spec(0) }
 }
@@ -70,7 +75,7 @@ fn uninterrupted(plan: &PassPlan) -> (Vec<Option<SampleRange>>, std::sync::Arc<F
 #[test]
 fn every_pass_hands_out_every_tile_with_its_samples_up_to_the_cap() {
     // A target of 0 is not reached: every pass renders.
-    let plan = PassPlan::new(16, Some(0.0), None);
+    let plan = three(Some(0.0), None);
     let (asked, f) = uninterrupted(&plan);
     let total = geometry().tile_count() as usize;
     assert_eq!(asked.len(), 3 * total, "passes of 4, 8 and 16 samples");
@@ -88,8 +93,8 @@ fn every_pass_hands_out_every_tile_with_its_samples_up_to_the_cap() {
 fn a_plan_stops_after_the_first_pass_that_meets_its_target_or_time() {
     let total = geometry().tile_count() as usize;
     for (plan, why) in [
-        (PassPlan::new(16, Some(f64::MAX), None), PassStop::TargetReached),
-        (PassPlan::new(16, None, Some(0.0)), PassStop::TimeLimit),
+        (three(Some(f64::MAX), None), PassStop::TargetReached),
+        (three(None, Some(0.0)), PassStop::TimeLimit),
     ] {
         let (asked, f) = uninterrupted(&plan);
         assert_eq!(asked.len(), total, "one pass");
@@ -99,7 +104,7 @@ fn a_plan_stops_after_the_first_pass_that_meets_its_target_or_time() {
 
 #[tokio::test]
 async fn a_journalled_job_in_passes_resumes_in_its_pass_to_the_same_bits() {
-    let plan = PassPlan::new(16, Some(0.0), None);
+    let plan = three(Some(0.0), None);
     let (_, reference) = uninterrupted(&plan);
     let dir = std::env::temp_dir().join(format!("farm-journal-passes-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
