@@ -44,6 +44,19 @@ pub fn example_scene() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("../scenes/example.pbrt")
 }
 
+/// The example scene's text at `width` × `height` pixels, with `sampler`
+/// in place of its Halton sampler.
+pub fn small_example(width: u32, height: u32, sampler: &str) -> String {
+    std::fs::read_to_string(example_scene())
+        .expect("example scene")
+        .replace("\"integer xresolution\" [ 480 ]", &format!("\"integer xresolution\" [ {width} ]"))
+        .replace(
+            "\"integer yresolution\" [ 320 ]",
+            &format!("\"integer yresolution\" [ {height} ]"),
+        )
+        .replace("Sampler \"halton\"", &format!("Sampler \"{sampler}\""))
+}
+
 /// An image's floats as bits, for bit-for-bit comparisons.
 pub fn bits(img: &RgbImage) -> Vec<u32> {
     img.pixels.iter().flat_map(|p| p.map(f32::to_bits)).collect()

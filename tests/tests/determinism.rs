@@ -40,17 +40,12 @@ fn renders_are_bit_identical_across_runs_and_thread_counts() {
 fn a_crop_is_bit_identical_to_the_same_pixels_of_the_full_render() {
     let dir = std::env::temp_dir().join(format!("farm-crop-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
-    let text = std::fs::read_to_string(example()).unwrap();
     for sampler in ["halton", "sobol", "random", "stratified", "02sequence", "maxmindist"] {
         // A small film, a wide filter, a crop across tile edges.
-        let scene = text
-            .replace("\"integer xresolution\" [ 480 ]", "\"integer xresolution\" [ 150 ]")
-            .replace("\"integer yresolution\" [ 320 ]", "\"integer yresolution\" [ 100 ]")
-            .replace("Sampler \"halton\"", &format!("Sampler \"{sampler}\""))
-            .replace(
-                "PixelFilter \"gaussian\"",
-                "PixelFilter \"mitchell\" \"float xwidth\" [ 2.5 ]",
-            );
+        let scene = farm_tests::small_example(150, 100, sampler).replace(
+            "PixelFilter \"gaussian\"",
+            "PixelFilter \"mitchell\" \"float xwidth\" [ 2.5 ]",
+        );
         let path = dir.join(format!("{sampler}.pbrt"));
         std::fs::write(&path, scene).unwrap();
         let render = |crop: Option<[f32; 4]>| {

@@ -7,22 +7,17 @@
 use farm_cli::embedded::{self as submit, RenderSummary, SubmitOptions};
 use farm_common::film::{sum_order_bound, PassStop};
 use farm_common::image::RgbImage;
+use farm_tests::bits;
 use std::path::{Path, PathBuf};
 
 /// The project's example scene, small, with `sampler` and without the
 /// floor's texture (whose filtering depends on the job's sample count);
 /// the filter stays the 2-pixel Gaussian, so samples reach 25 pixels.
 fn scene(sampler: &str) -> PathBuf {
-    let example = Path::new(env!("CARGO_MANIFEST_DIR")).join("../scenes/example.pbrt");
-    let text = std::fs::read_to_string(example).unwrap();
-    let text = text
-        .replace("\"integer xresolution\" [ 480 ]", "\"integer xresolution\" [ 120 ]")
-        .replace("\"integer yresolution\" [ 320 ]", "\"integer yresolution\" [ 80 ]")
-        .replace("Sampler \"halton\"", &format!("Sampler \"{sampler}\""))
-        .replace(
-            "Material \"matte\" \"texture Kd\" \"checks\"",
-            "Material \"matte\" \"rgb Kd\" [ 0.5 0.5 0.5 ]",
-        );
+    let text = farm_tests::small_example(120, 80, sampler).replace(
+        "Material \"matte\" \"texture Kd\" \"checks\"",
+        "Material \"matte\" \"rgb Kd\" [ 0.5 0.5 0.5 ]",
+    );
     let dir = std::env::temp_dir().join(format!("farm-passes-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
     let path = dir.join(format!("{sampler}.pbrt"));
@@ -111,8 +106,6 @@ fn a_sampler_with_state_renders_its_first_pass_as_a_one_shot_render() {
         let first = render(&path, 32, Some(f64::MAX), None);
         assert_eq!((first.spp, first.stopped), (4, Some(PassStop::TargetReached)), "{sampler}");
         let once = render(&path, 4, None, None);
-        let bits =
-            |i: &RgbImage| i.pixels.iter().flat_map(|p| p.map(f32::to_bits)).collect::<Vec<_>>();
         assert!(
             bits(&first.image) == bits(&once.image),
             "{sampler}: first pass differs from 4 spp"
@@ -155,7 +148,7 @@ async fn passes_on_two_workers_match_the_embedded_passes_bit_for_bit() {
     let remote = Remote::insecure(&cluster.url);
     let opts = RemoteOptions { spp: Some(16), target_error: Some(0.0), ..Default::default() };
     let farm = client::submit(&remote, &path, &opts, |_, _| {}).await.expect("farm render");
-    assert!(farm_tests::bits(&farm.image) == farm_tests::bits(&embedded.image), "image differs");
+    assert!(bits(&farm.image) == bits(&embedded.image), "image differs");
     let spp = |s: &RenderSummary| s.passes.iter().map(|p| (p.spp, p.estimate)).collect::<Vec<_>>();
     assert_eq!(spp(&farm), spp(&embedded));
     assert_eq!(farm.stopped, Some(PassStop::Cap));
