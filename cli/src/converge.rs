@@ -157,7 +157,7 @@ pub fn run(
         |end, film, stats| {
             if counts.contains(&end.spp) {
                 let image = film.image();
-                let estimate = film.error_estimate();
+                let estimate = film.error_estimate(end.spp);
                 rows.push(row(end.spp, end.seconds, stats.total_rays(), &image, estimate.as_ref()));
                 if reference.is_none() {
                     images.push(image);

@@ -196,8 +196,8 @@ where
 }
 
 /// [`run_job`], calling `on_pass` with each pass's end, the film as it
-/// stands then and the rays traced so far, for every pass of a job in passes but its last (whose
-/// image and estimate are the finished job's).
+/// stands then and the rays traced so far, for every pass of a job in
+/// passes but its last (whose image and estimate are the finished job's).
 pub fn run_job_with<R>(
     render: R,
     job: LocalJob,

@@ -35,7 +35,7 @@
 
 use farm_common::film::{HalfImages, Pixel, TILE_SIZE};
 
-mod fireflies;
+pub mod fireflies;
 pub use fireflies::{find as find_fireflies, Fireflies};
 
 /// Side of the blocks of [`ErrorEstimate::per_tile`].

@@ -2,7 +2,8 @@
 //!
 //! A job of N samples per pixel (its cap) can render in passes: the first
 //! pass takes each pixel's first [`FIRST_PASS_SPP`] samples, each later
-//! pass doubles the count, and the last stops at N. After each pass the
+//! pass takes the count about √2 times higher ([`PassPlan::new`]), and the
+//! last stops at N. After each pass the
 //! scheduler asks the film for its error estimate and stops once it is at
 //! most E, or once a pass ends past S seconds. The plan depends only on N,
 //! E and S, so which passes render depends on the scene and E alone (S is

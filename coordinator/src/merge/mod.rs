@@ -222,17 +222,19 @@ impl Film {
     /// sums them, so a watched render (whose running estimate has taken in
     /// most tiles already) and an unwatched one give the same bits, and no
     /// pixel's error is computed twice.
-    pub fn error_estimate(&mut self) -> Option<ErrorEstimate> {
+    ///
+    /// `spp` is the samples per pixel merged: it sets how far apart a
+    /// firefly's halves must be ([`crate::estimate::fireflies::apart`]).
+    pub fn error_estimate(&mut self, spp: u32) -> Option<ErrorEstimate> {
         self.running_estimate()?;
         let b = self.geometry.cropped_pixel_bounds;
         let (width, height) = (b.width() as usize, b.height() as usize);
         let r = &self.running;
         let fireflies = find_fireflies(
-            width,
-            height,
+            (width, height),
             |i| self.sums.pixel(i),
             self.geometry.scale,
-            self.halves,
+            (self.halves, spp),
             (r.sum, r.counted),
         );
         Some(ErrorEstimate {
@@ -246,8 +248,8 @@ impl Film {
 
     /// The estimate a render in passes decides by after a pass:
     /// [`ErrorEstimate::upper`], which counts fireflies' error.
-    pub fn pass_estimate(&mut self) -> Option<f64> {
-        self.error_estimate().map(|e| e.upper())
+    pub fn pass_estimate(&mut self, spp: u32) -> Option<f64> {
+        self.error_estimate(spp).map(|e| e.upper())
     }
 
     /// The estimate of [`Film::error_estimate`] over the pixels whose sums

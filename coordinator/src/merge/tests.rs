@@ -174,8 +174,8 @@ fn the_running_estimate_follows_the_merge_and_ends_on_the_final_one() {
         }
     }
     let running = f.running_estimate().unwrap();
-    let watched = f.error_estimate().unwrap();
-    let plain = unwatched.error_estimate().unwrap();
+    let watched = f.error_estimate(2).unwrap();
+    let plain = unwatched.error_estimate(2).unwrap();
     assert_eq!(watched.rel_mse.to_bits(), plain.rel_mse.to_bits(), "the same bits");
     assert_eq!(watched, plain);
     assert!((running - plain.rel_mse).abs() <= 1e-12 * plain.rel_mse);
@@ -196,7 +196,7 @@ fn the_running_estimate_follows_the_merge_and_ends_on_the_final_one() {
         }
         one.accept(TileId(id), t).unwrap();
     }
-    assert!(one.error_estimate().is_none());
+    assert!(one.error_estimate(1).is_none());
 }
 
 fn single(p: Point2i) -> Bounds2i {

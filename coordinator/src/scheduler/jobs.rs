@@ -337,10 +337,11 @@ impl Scheduler {
         let Some(j) = self.jobs.get_mut(&job) else { return };
         let Some(mut film) = j.film.take() else { return };
         let render_seconds = j.started.map(|s| now.duration_since(s).as_secs_f64()).unwrap_or(0.0);
+        let spp = j.pass_ends.last().map_or(j.spec.spp, |p| p.spp);
         let finished = std::sync::Arc::new(FinishedJob {
             image: film.image(),
-            error: film.error_estimate(),
-            spp: j.pass_ends.last().map_or(j.spec.spp, |p| p.spp),
+            error: film.error_estimate(spp),
+            spp,
             render_seconds,
             stats: j.stats,
             passes: j.pass_ends.clone(),

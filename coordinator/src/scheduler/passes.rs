@@ -20,9 +20,9 @@ impl Scheduler {
         let Some(plan) = j.spec.passes.as_ref() else { return self.finish(job, out) };
         let Some(film) = j.film.as_mut() else { return };
         let pass = j.pass as usize;
-        let estimate = film.pass_estimate();
-        let seconds = j.started.map_or(0.0, |s| now.duration_since(s).as_secs_f64());
         let spp = plan.totals[pass];
+        let estimate = film.pass_estimate(spp);
+        let seconds = j.started.map_or(0.0, |s| now.duration_since(s).as_secs_f64());
         j.pass_ends.push(PassEnd { spp, estimate, seconds });
         if let Some(why) = plan.stop_after(pass, estimate, seconds) {
             info!(job = job.0, pass, spp, ?estimate, seconds, ?why, "last pass done");

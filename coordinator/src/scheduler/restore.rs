@@ -45,11 +45,9 @@ impl Scheduler {
                 // tiles come only once the pass before is merged whole.
                 let (pass, tile) = (key / total.max(1), key % total.max(1));
                 while pass > job.pass && film.is_complete() && job.has_pass_after() {
-                    job.pass_ends.push(PassEnd {
-                        spp: job.samples().map_or(job.spec.spp, |r| r.end),
-                        estimate: film.pass_estimate(),
-                        seconds: 0.0,
-                    });
+                    let spp = job.samples().map_or(job.spec.spp, |r| r.end);
+                    let estimate = film.pass_estimate(spp);
+                    job.pass_ends.push(PassEnd { spp, estimate, seconds: 0.0 });
                     film.next_pass();
                     job.pass += 1;
                     job.done_tiles = 0;
