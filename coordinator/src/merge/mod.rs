@@ -126,9 +126,10 @@ impl Film {
     /// completes), and every tile is awaited again. Watchers are sent each
     /// region again as the pass's tiles merge.
     ///
-    /// The second half and the estimate are cleared when the next pass's
-    /// first tile comes in, so until then [`Film::error_estimate`] is still
-    /// the finished pass's.
+    /// The second half and the estimate are cleared (and the halves'
+    /// relation changed, below) when the next pass's first tile comes in,
+    /// so until then [`Film::error_estimate`] is still the finished pass's,
+    /// fireflies and all.
     ///
     /// After the first pass of a sampler with state, whose halves spread
     /// over one set's strata, each pass is a set of its own: the halves are
@@ -138,17 +139,18 @@ impl Film {
         self.next = 0;
         self.pending.clear();
         self.pass_started = false;
-        if self.halves == HalfImages::Spread {
-            self.halves = HalfImages::Independent;
-        }
     }
 
-    /// Clears the second half and the estimate of the pass before, once.
+    /// Clears the second half and the estimate of the pass before, once,
+    /// and makes the halves independent if they were spread.
     fn start_pass(&mut self) {
         if self.pass_started {
             return;
         }
         self.pass_started = true;
+        if self.halves == HalfImages::Spread {
+            self.halves = HalfImages::Independent;
+        }
         self.sums.second.fill([0.0; 4]);
         let map = std::mem::take(&mut self.running.map);
         self.running = Running::default();

@@ -231,3 +231,28 @@ fn sums_for_a_watcher_resolve_to_the_preview() {
         all[g.cropped_pixel_bounds.offset(Point2i::new(early.max.x - 1, early.max.y - 1))][0] > 0.0
     );
 }
+
+#[test]
+fn a_finished_pass_keeps_its_estimate_until_the_next_pass_begins() {
+    // Halves spread over one set's strata, as a sampler with state's first
+    // pass has them, and a row of pixels that found a small light with
+    // one sample: the estimate is a lower bound whose upper value depends
+    // on how the halves relate.
+    let mut g = film();
+    g.half_images = HalfImages::Spread;
+    let mut f = Film::new(g.clone());
+    for id in 0..g.tile_count() {
+        let mut t = FilmTile::new(g.tile_pixel_bounds(TileId(id)));
+        for p in t.pixel_bounds.iter() {
+            for i in 0..4 {
+                let v = if p.y == 10 && p.x % 5 == 0 && i == 3 { 50.0 } else { 0.1 };
+                t.add(p, Spectrum::new(v, v, v), 1.0, i >= 2);
+            }
+        }
+        f.accept(TileId(id), t).unwrap();
+    }
+    let finished = f.error_estimate(4).unwrap();
+    assert!(finished.fireflies.is_some(), "{finished:?}");
+    f.next_pass();
+    assert_eq!(f.error_estimate(4).unwrap(), finished, "read between the passes");
+}
