@@ -26,7 +26,7 @@ pub fn caveat(sampler: SamplerKind, in_passes: bool) -> Option<&'static str> {
 /// Why a render's estimate is a lower bound, and what it could be.
 pub fn fireflies(f: &Fireflies) -> String {
     format!(
-        "the estimate is a lower bound: {} pixels are fireflies (one rare bright sample, far above the rest of the pixel and its neighbours), whose error it cannot measure; counting them the relMSE may be up to {:.3e}; the brightest is at ({}, {})",
+        "the estimate is a lower bound: {} pixels rest on rare bright samples (fireflies, or the edges of small lights that few samples found), whose error it cannot measure; counting them the relMSE may be up to {:.3e}; the brightest is at ({}, {})",
         f.pixels, f.rel_mse, f.brightest.0, f.brightest.1
     )
 }

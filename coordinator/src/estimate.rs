@@ -52,12 +52,15 @@ pub fn pixel_error(p: &Pixel, scale: f32, halves: HalfImages) -> Option<f64> {
 }
 
 /// What a pixel's squared error is relative to.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Against {
     /// Its value, as the reference comparison has it.
     Value,
     /// Its darker half: for a firefly, nearer its true value.
     DarkerHalf,
+    /// A level per channel: for a pixel on the edge of a small light, the
+    /// mean of a run of pixels along the edge.
+    Level([f64; 3]),
 }
 
 /// [`pixel_error`], relative to the pixel's value or its darker half.
@@ -92,6 +95,7 @@ pub fn pixel_error_against(
         let level = match against {
             Against::Value => full,
             Against::DarkerHalf => a.min(b).max(0.0),
+            Against::Level(l) => l[c],
         };
         e += d * d * times / (level * level + EPSILON);
     }
@@ -101,8 +105,8 @@ pub fn pixel_error_against(
 /// An estimate of a render's relMSE from its two half-images.
 #[derive(Clone, Debug, PartialEq)]
 pub struct ErrorEstimate {
-    /// The render's fireflies, when it has enough that the estimate is
-    /// only a lower bound.
+    /// The render's fireflies and edge pixels, when counting them makes
+    /// the estimate only a lower bound.
     pub fireflies: Option<Fireflies>,
     /// Image width in pixels.
     pub width: usize,
@@ -156,8 +160,8 @@ impl ErrorEstimate {
         })
     }
 
-    /// The estimate, counting the fireflies' error as [`Fireflies::rel_mse`]
-    /// does when there are fireflies: the value to decide by.
+    /// The estimate, counting the fireflies' and edge pixels' error as
+    /// [`Fireflies::rel_mse`] does when they matter: the value to decide by.
     pub fn upper(&self) -> f64 {
         self.fireflies.as_ref().map_or(self.rel_mse, |f| f.rel_mse.max(self.rel_mse))
     }

@@ -1,28 +1,44 @@
-//! Fireflies: pixels whose value rests on one rare, bright sample. The
-//! halves cannot measure their error: it is relative to the pixel's true
-//! value, which such a pixel's own value overstates many times, so the
-//! estimate divides by too much. (On veach-mis, pixels brighter than the
-//! reference hold 97% of the true error at 16 spp, and the estimate sees
-//! 3% of it.)
+//! Pixels whose error the halves cannot measure: fireflies and the edges
+//! of small lights that few samples found.
 //!
-//! A firefly here is a pixel whose brighter half is more than
-//! [`apart`] times its darker half, whose value is more than as many times
-//! the median of its eight neighbours, and which is brighter than all of
-//! them but one (another firefly). The neighbour tests tell it from a
-//! pixel on the edge of a bright light at a few samples per pixel, whose
-//! halves differ as much but which is no brighter than the light beside
-//! it, even where most of its neighbours missed the light too.
+//! A **firefly** is a pixel whose value rests on one rare, bright sample.
+//! Its error is relative to the pixel's true value, which such a pixel's
+//! own value overstates many times, so the estimate divides by too much.
+//! (On veach-mis, pixels brighter than the reference hold 97% of the true
+//! error at 16 spp, and the estimate sees 3% of it.) Here a firefly is a
+//! pixel whose brighter half is more than [`apart`] times its darker half,
+//! whose value is more than as many times the median of its eight
+//! neighbours, and which is brighter than all of them but one (another
+//! firefly). Its error is counted against its darker half instead of its
+//! value: what the error comes to if the darker half is near the pixel's
+//! true value, as it is for a rare sample.
 //!
-//! [`Fireflies::rel_mse`] is the estimate with each firefly's error
-//! measured against its darker half instead of its value: what the error
-//! comes to if the darker half is near the pixel's true value, as it is
-//! for a rare sample. When a render has at least [`MIN_PIXELS`] fireflies
-//! and counting them so makes the estimate more than [`MATERIAL`] times
-//! what it is, the estimate is a lower bound; when they add less, it
-//! already holds what they could add, to within the 2× it claims.
+//! An **edge** pixel's halves are as far apart, but a light beside it is
+//! brighter: the pixel lies on the edge of a light that covers a little of
+//! it, and one of its few samples found the light. At a few samples per
+//! pixel, along an edge that covers each pixel by a few percent, most
+//! pixels miss the light (their halves agree, so the estimate counts no
+//! error there, though the light's share of them is missing), and those
+//! that hit it are several times their true value (so the estimate
+//! divides by too much). On a room lit by small ceiling lights at 8 spp,
+//! such pixels held nearly all the true error, and the estimate saw a
+//! sixth of it. Along the edge, the mean of a run of pixels is near their
+//! true level: the run is the pixel and two neighbours each way, across
+//! the row or down the column, whichever is more even (the edge's own
+//! direction). An edge pixel's error is counted against that level, and
+//! each pixel of the run far below it (one that missed the light) gets
+//! the error of its difference from the level.
+//!
+//! [`Fireflies::rel_mse`] is the estimate with those errors counted: an
+//! upper value. When counting them makes the estimate more than
+//! [`MATERIAL`] times what it is, the estimate is a lower bound; when
+//! they add less, it already holds what they could add, to within the 2×
+//! it claims. (Fewer than [`MIN_PIXELS`] fireflies are counted as edge
+//! pixels: a lone one is usually the corner of a light.)
 
-use super::{pixel_error_against, Against};
+use super::{pixel_error_against, Against, EPSILON};
 use farm_common::film::{HalfImages, Pixel};
+use std::collections::BTreeMap;
 
 /// How many times its darker half a pixel's brighter half must be, and
 /// its value its neighbours' median, for it to count as a firefly, when
@@ -46,15 +62,15 @@ pub const MIN_PIXELS: usize = 10;
 /// render to report them.
 pub const MATERIAL: f64 = 2.0;
 
-/// What a render's fireflies do to its estimate.
+/// What a render's fireflies and edge pixels do to its estimate.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Fireflies {
-    /// How many pixels are fireflies.
+    /// How many pixels are fireflies or edge pixels.
     pub pixels: usize,
-    /// The estimate with each firefly's error measured against its darker
-    /// half: an upper value of the render's relMSE.
+    /// The estimate with their errors counted as the module documentation
+    /// says: an upper value of the render's relMSE.
     pub rel_mse: f64,
-    /// The brightest firefly (image coordinates).
+    /// The brightest of them (image coordinates).
     pub brightest: (u32, u32),
 }
 
@@ -75,10 +91,15 @@ fn levels(p: &Pixel, scale: f64) -> Option<(f64, f64, f64)> {
     Some((full, a.min(b), a.max(b)))
 }
 
-/// The fireflies of a `width` × `height` film whose pixels (row-major) are
-/// `pixel(i)`, and whose estimate sums to `sum` over `counted` pixels with
-/// `halves` at `spp` samples per pixel; `None` when there are fewer than
-/// [`MIN_PIXELS`] or they do not matter ([`MATERIAL`]).
+/// How far each way along an edge the run of pixels whose mean is an
+/// edge pixel's level reaches.
+const RUN: usize = 2;
+
+/// The fireflies and edge pixels of a `width` × `height` film whose pixels
+/// (row-major) are `pixel(i)`, and whose estimate sums to `sum` over
+/// `counted` pixels with `halves` at `spp` samples per pixel; `None` when
+/// counting their error does not make the estimate more than [`MATERIAL`]
+/// times what it is.
 pub fn find(
     (width, height): (usize, usize),
     pixel: impl Fn(usize) -> Pixel,
@@ -86,14 +107,17 @@ pub fn find(
     (halves, spp): (HalfImages, u32),
     (sum, counted): (f64, usize),
 ) -> Option<Fireflies> {
-    let scale = f64::from(scale);
     let n = width * height;
-    let value: Vec<f64> = (0..n).map(|i| levels(&pixel(i), scale).map_or(0.0, |l| l.0)).collect();
-    let (mut pixels, mut extra, mut brightest) = (0usize, 0.0f64, (0.0f64, 0usize));
+    // Each pixel's value, NaN where a half has no samples.
+    let values: Vec<f64> =
+        (0..n).map(|i| levels(&pixel(i), f64::from(scale)).map_or(f64::NAN, |l| l.0)).collect();
+    let sampled = |j: usize| Some(values[j]).filter(|v| !v.is_nan());
+    let value = |j: usize| sampled(j).unwrap_or(0.0);
+    let (mut fireflies, mut edges) = (Vec::new(), Vec::new());
     let mut around = Vec::with_capacity(8);
     for i in 0..n {
         let p = pixel(i);
-        let Some((full, dark, bright)) = levels(&p, scale) else { continue };
+        let Some((full, dark, bright)) = levels(&p, f64::from(scale)) else { continue };
         let smaller =
             f64::from(p.second_weight.min(p.weight - p.second_weight)) / f64::from(p.weight);
         let apart = apart(f64::from(spp) * smaller);
@@ -105,33 +129,104 @@ pub fn find(
         for ny in y.saturating_sub(1)..(y + 2).min(height) {
             for nx in x.saturating_sub(1)..(x + 2).min(width) {
                 if (nx, ny) != (x, y) {
-                    around.push(value[ny * width + nx]);
+                    around.push(value(ny * width + nx));
                 }
             }
         }
         around.sort_by(f64::total_cmp);
         let median = around.get(around.len() / 2).copied().unwrap_or(0.0);
         let second = around.len().checked_sub(2).map_or(0.0, |j| around[j]);
-        if full <= apart * (median + 0.01) || full <= second {
-            continue;
-        }
-        let plain = pixel_error_against(&p, scale as f32, halves, Against::Value);
-        let dark = pixel_error_against(&p, scale as f32, halves, Against::DarkerHalf);
-        if let (Some(plain), Some(dark)) = (plain, dark) {
-            pixels += 1;
-            extra += dark - plain;
-            if full > brightest.0 {
-                brightest = (full, i);
-            }
+        if full > apart * (median + 0.01) && full > second {
+            fireflies.push(i);
+        } else {
+            edges.push(i);
         }
     }
+    if fireflies.len() < MIN_PIXELS {
+        edges.append(&mut fireflies);
+        edges.sort_unstable();
+    }
+    // Each counted pixel's error, where it differs from the estimate's (a
+    // BTreeMap, so the sum's order, and so its bits, never vary).
+    let mut counted_as: BTreeMap<usize, f64> = BTreeMap::new();
+    let plain = |i: usize| pixel_error_against(&pixel(i), scale, halves, Against::Value);
+    let mut count = |i: usize, e: f64| {
+        if let Some(p) = plain(i) {
+            let c = counted_as.entry(i).or_insert(p);
+            *c = c.max(e);
+        }
+    };
+    for &i in &fireflies {
+        if let Some(e) = pixel_error_against(&pixel(i), scale, halves, Against::DarkerHalf) {
+            count(i, e);
+        }
+    }
+    let rgb = |i: usize| pixel(i).resolve(scale).map(f64::from);
+    for &i in &edges {
+        let run = edge_run(i, (width, height), sampled);
+        let mut lev = rgb(i);
+        for &j in &run {
+            let c = rgb(j);
+            (0..3).for_each(|k| lev[k] += c[k]);
+        }
+        let lev = lev.map(|v| v / (run.len() + 1) as f64);
+        if let Some(e) = pixel_error_against(&pixel(i), scale, halves, Against::Level(lev)) {
+            count(i, e);
+        }
+        let mean = lev.iter().sum::<f64>() / 3.0;
+        for &j in run.iter().filter(|&&j| value(j) < 0.5 * mean) {
+            let c = rgb(j);
+            let e = (0..3).map(|k| (lev[k] - c[k]).powi(2) / (lev[k] * lev[k] + EPSILON));
+            count(j, e.sum::<f64>() / 3.0);
+        }
+    }
+    let extra: f64 = counted_as.iter().map(|(&i, &e)| e - plain(i).unwrap_or(e)).sum();
     let upper = (sum + extra) / counted.max(1) as f64;
     let material = upper > MATERIAL * sum / counted.max(1) as f64;
-    (pixels >= MIN_PIXELS && counted > 0 && material).then(|| Fireflies {
-        pixels,
+    let brightest = fireflies
+        .iter()
+        .chain(&edges)
+        .copied()
+        .max_by(|&a, &b| value(a).total_cmp(&value(b)).then(b.cmp(&a)));
+    (counted > 0 && material).then(|| Fireflies {
+        pixels: fireflies.len() + edges.len(),
         rel_mse: upper,
-        brightest: ((brightest.1 % width) as u32, (brightest.1 / width) as u32),
+        brightest: brightest.map_or((0, 0), |i| ((i % width) as u32, (i / width) as u32)),
     })
+}
+
+/// The pixels beside edge pixel `i` along its edge: up to [`RUN`] each way
+/// across its row or down its column, whichever have the smaller variance
+/// of `value` (`None` where a pixel has no samples, and is left out).
+fn edge_run(
+    i: usize,
+    (width, height): (usize, usize),
+    value: impl Fn(usize) -> Option<f64>,
+) -> Vec<usize> {
+    let (x, y) = ((i % width) as isize, (i / width) as isize);
+    let along = |dx: isize, dy: isize| -> Vec<usize> {
+        (1..=RUN as isize)
+            .flat_map(|k| [-k, k])
+            .map(|k| (x + k * dx, y + k * dy))
+            .filter(|&(nx, ny)| nx >= 0 && ny >= 0 && nx < width as isize && ny < height as isize)
+            .map(|(nx, ny)| ny as usize * width + nx as usize)
+            .filter(|&j| value(j).is_some())
+            .collect()
+    };
+    let variance = |run: &[usize]| {
+        if run.is_empty() {
+            return f64::INFINITY;
+        }
+        let v: Vec<f64> = run.iter().filter_map(|&j| value(j)).collect();
+        let mean = v.iter().sum::<f64>() / v.len() as f64;
+        v.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / v.len() as f64
+    };
+    let (row, column) = (along(1, 0), along(0, 1));
+    if variance(&row) <= variance(&column) {
+        row
+    } else {
+        column
+    }
 }
 
 #[cfg(test)]
@@ -190,11 +285,22 @@ mod tests {
     }
 
     #[test]
-    fn a_few_fireflies_or_a_lights_edge_are_not_reported() {
-        let few: Vec<(i32, i32)> = (0..MIN_PIXELS as i32 - 1).map(|k| (2 * k, 3)).collect();
-        assert_eq!(run(&film(&few, 200.0, 30), 8), None);
+    fn a_few_fireflies_count_as_edge_pixels() {
+        // Nine rare spikes of 200 (each pixel 25 against a true 0.1): too
+        // few to be fireflies, but counted as edge pixels, they still hold
+        // nearly all the error.
+        let few: Vec<(i32, i32)> = (0..MIN_PIXELS as i32 - 1).map(|k| (4 * k + 2, 3)).collect();
+        let t = film(&few, 200.0, 30);
+        let (sum, counted) = estimate(&t);
+        let f = run(&t, 8).expect("reported");
+        assert_eq!(f.pixels, few.len());
+        assert!(f.rel_mse > 10.0 * sum / counted as f64, "{} vs {}", f.rel_mse, sum);
+    }
+
+    #[test]
+    fn a_lights_edge_that_every_pixel_found_is_not_reported() {
         // Pixels on a light's edge whose halves differ by more than
-        // `apart`: as bright as their neighbours in the light.
+        // `apart`, all alike along the edge: their value is their level.
         let b = Bounds2i::new(Point2i::new(0, 0), Point2i::new(40, 30));
         let mut t = FilmTile::new(b);
         for p in b.iter() {
@@ -205,18 +311,39 @@ mod tests {
             }
         }
         assert_eq!(run(&t, 4), None);
-        // A light's edge where most pixels missed it: the pixels that hit
-        // it have mostly dark neighbours, but the light beside them is
-        // brighter still.
+    }
+
+    #[test]
+    fn a_small_lights_edge_that_most_pixels_missed_is_reported_near_its_true_error() {
+        // A light of 50 over rows 16 on covers row 15 by 1/16: its true
+        // level there is 50/16. At 4 spp one pixel in four found the light
+        // with one sample (worth 12.5, four times the truth); the others
+        // found none (0, missing the light's share). The halves see only
+        // the hits, measured against their too-bright value.
+        let b = Bounds2i::new(Point2i::new(0, 0), Point2i::new(40, 30));
         let mut t = FilmTile::new(b);
+        let hit = |p: Point2i, i: i32| p.y > 15 || (p.y == 15 && p.x % 4 == 1 && i == 3);
         for p in b.iter() {
             for i in 0..4 {
-                let lit = p.y > 15 || (p.y == 15 && p.x % 3 == 0 && i >= 2);
-                let v = if lit { 50.0 } else { 0.0 };
+                let v = if hit(p, i) { 50.0 } else { 0.0 };
                 t.add(p, Spectrum::new(v, v, v), 1.0, i >= 2);
             }
         }
-        assert_eq!(run(&t, 4), None);
+        let truth_level = 50.0f64 / 16.0;
+        let row: f64 = (0..40)
+            .map(|x| {
+                let v = if x % 4 == 1 { 12.5 } else { 0.0 };
+                (v - truth_level).powi(2) / (truth_level * truth_level + EPSILON)
+            })
+            .sum();
+        let truth = row / 1200.0;
+        let (sum, counted) = estimate(&t);
+        let plain = sum / counted as f64;
+        assert!(plain < truth / 4.0, "the halves alone see {plain} of {truth}");
+        let f = run(&t, 4).expect("the edge is reported");
+        assert_eq!(f.pixels, 10);
+        assert!(f.rel_mse >= truth && f.rel_mse <= 3.0 * truth, "{} vs {truth}", f.rel_mse);
+        assert_eq!(f.brightest, (1, 15));
     }
 
     #[test]
