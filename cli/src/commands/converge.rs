@@ -94,7 +94,7 @@ pub fn run(args: &ConvergeArgs) -> ExitCode {
                 r.ns_per_sample,
                 num(r.rel_mse),
                 match r.upper {
-                    // A lower bound (the render has fireflies).
+                    // A lower bound (the render has fireflies or light edges).
                     Some(_) => format!(">={}", num(r.estimate)),
                     None => num(r.estimate),
                 },

@@ -29,11 +29,11 @@ pub struct ImageFacts {
     pub fireflies: Option<FireflyFacts>,
 }
 
-/// A render's fireflies: how many, the relMSE counting their error, and
-/// the brightest (image coordinates).
+/// A render's fireflies and edge pixels: how many, the relMSE counting
+/// their error, and the brightest (image coordinates).
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct FireflyFacts {
-    /// How many pixels are fireflies.
+    /// How many pixels are fireflies or edge pixels.
     pub pixels: u32,
     /// The estimate counting their error.
     pub rel_mse: f64,
