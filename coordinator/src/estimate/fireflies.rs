@@ -38,7 +38,7 @@
 
 use super::{pixel_error_against, Against, EPSILON};
 use farm_common::film::{HalfImages, Pixel};
-use std::collections::BTreeMap;
+use std::collections::btree_map::{BTreeMap, Entry};
 
 /// How many times its darker half a pixel's brighter half must be, and
 /// its value its neighbours' median, for it to count as a firefly, when
@@ -55,8 +55,8 @@ pub fn apart(samples: f64) -> f64 {
     (20.0 / samples.max(1.0)).max(4.0)
 }
 
-/// The fewest fireflies a render reports: a lone one is usually the corner
-/// of a light.
+/// The fewest fireflies a render counts as fireflies (fewer are counted as
+/// edge pixels): a lone one is usually the corner of a light.
 pub const MIN_PIXELS: usize = 10;
 /// How many times the estimate the fireflies' count must make it for the
 /// render to report them.
@@ -146,13 +146,16 @@ pub fn find(
         edges.append(&mut fireflies);
         edges.sort_unstable();
     }
-    // Each counted pixel's error, where it differs from the estimate's (a
+    // Each counted pixel's error in the estimate and as counted here (a
     // BTreeMap, so the sum's order, and so its bits, never vary).
-    let mut counted_as: BTreeMap<usize, f64> = BTreeMap::new();
-    let plain = |i: usize| pixel_error_against(&pixel(i), scale, halves, Against::Value);
+    let mut counted_as: BTreeMap<usize, (f64, f64)> = BTreeMap::new();
     let mut count = |i: usize, e: f64| {
-        if let Some(p) = plain(i) {
-            let c = counted_as.entry(i).or_insert(p);
+        let entry = match counted_as.entry(i) {
+            Entry::Occupied(o) => Some(o.into_mut()),
+            Entry::Vacant(v) => pixel_error_against(&pixel(i), scale, halves, Against::Value)
+                .map(|plain| v.insert((plain, plain))),
+        };
+        if let Some((_, c)) = entry {
             *c = c.max(e);
         }
     };
@@ -180,7 +183,7 @@ pub fn find(
             count(j, e.sum::<f64>() / 3.0);
         }
     }
-    let extra: f64 = counted_as.iter().map(|(&i, &e)| e - plain(i).unwrap_or(e)).sum();
+    let extra: f64 = counted_as.values().map(|&(plain, e)| e - plain).sum();
     let upper = (sum + extra) / counted.max(1) as f64;
     let material = upper > MATERIAL * sum / counted.max(1) as f64;
     let brightest = fireflies
@@ -217,9 +220,9 @@ fn edge_run(
         if run.is_empty() {
             return f64::INFINITY;
         }
-        let v: Vec<f64> = run.iter().filter_map(|&j| value(j)).collect();
-        let mean = v.iter().sum::<f64>() / v.len() as f64;
-        v.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / v.len() as f64
+        let v = |&j: &usize| value(j).unwrap_or(0.0);
+        let mean = run.iter().map(v).sum::<f64>() / run.len() as f64;
+        run.iter().map(|j| (v(j) - mean).powi(2)).sum::<f64>() / run.len() as f64
     };
     let (row, column) = (along(1, 0), along(0, 1));
     if variance(&row) <= variance(&column) {
