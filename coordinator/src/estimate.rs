@@ -32,11 +32,25 @@
 //! Dividing by F² + 0.01 gives the same relative MSE the reference
 //! comparison uses (`metrics::rel_mse`), per pixel and channel. a and b are
 //! taken from the halves' sums of filter weights.
+//!
+//! **The level a pixel's error is relative to.** The reference comparison
+//! divides by the true value; the estimate has only the pixel's own F,
+//! which the samples that make (A − B)² large also make large. Where a
+//! pixel's few samples are mostly dim and now and then very bright (a
+//! rough metal lit by a small sun, speckled at 64 spp), the pixels that
+//! caught a bright sample have a large difference over a large F, and
+//! those that caught none have none: the estimate saw a third of the true
+//! error on such a scene (`scenes/estimate/motion.pbrt`, Halton at 64
+//! spp). So each channel's error is taken relative to the smaller of F
+//! and the mean F of the 3 × 3 pixels around it ([`levelled_errors`]):
+//! in a smooth region that is F, at a speckle the level of its
+//! neighbourhood, and at the bright side of an edge it counts the pixel
+//! against a little less than its value (the dark side keeps its own).
 
 use farm_common::film::{HalfImages, Pixel, TILE_SIZE};
 
 pub mod fireflies;
-pub use fireflies::{find as find_fireflies, Fireflies};
+pub use fireflies::{find as find_fireflies, suspects, Fireflies, Suspects};
 
 /// Side of the blocks of [`ErrorEstimate::per_tile`].
 const BLOCK: usize = TILE_SIZE as usize;
@@ -45,10 +59,61 @@ use farm_common::geometry::Bounds2i;
 /// The denominator's offset in relMSE, as in `metrics::rel_mse`.
 const EPSILON: f64 = 0.01;
 
-/// One pixel's estimated relMSE (averaged over its channels), or `None`
-/// when a half has no samples there.
+/// One pixel's estimated relMSE (averaged over its channels) relative to
+/// its own value, or `None` when a half has no samples there: what the
+/// running estimate of a render under way shows ([`levelled_errors`] is
+/// the finished render's).
 pub fn pixel_error(p: &Pixel, scale: f32, halves: HalfImages) -> Option<f64> {
     pixel_error_against(p, scale, halves, Against::Value)
+}
+
+/// A pixel's value per channel, as [`pixel_error_against`] takes it, or
+/// `None` when a half has no samples there.
+fn sampled_value(p: &Pixel, scale: f32) -> Option<[f64; 3]> {
+    let w = f64::from(p.weight);
+    let w_b = f64::from(p.second_weight);
+    let w_a = w - w_b;
+    if w == 0.0 || w_a == 0.0 || w_b == 0.0 {
+        return None;
+    }
+    Some(p.contrib.map(|c| (f64::from(c) / w).max(0.0) * f64::from(scale)))
+}
+
+/// Each pixel's estimated relMSE over a `width` × `height` film whose
+/// pixels (row-major) are `pixel(i)`: per channel, relative to the smaller
+/// of its value and the mean value of the 3 × 3 pixels around it (itself
+/// included; pixels without samples in both halves left out), as the
+/// module documentation says, or to its value alone where `own(i)` (a
+/// firefly, which would set its neighbourhood's level itself). `None`
+/// where a half has no samples.
+pub fn levelled_errors(
+    (width, height): (usize, usize),
+    pixel: impl Fn(usize) -> Pixel,
+    scale: f32,
+    halves: HalfImages,
+    own: impl Fn(usize) -> bool,
+) -> Vec<Option<f64>> {
+    let values: Vec<Option<[f64; 3]>> =
+        (0..width * height).map(|i| sampled_value(&pixel(i), scale)).collect();
+    (0..values.len())
+        .map(|i| {
+            let value = values[i]?;
+            if own(i) {
+                return pixel_error(&pixel(i), scale, halves);
+            }
+            let (x, y) = (i % width, i / width);
+            let (mut sum, mut k) = ([0.0f64; 3], 0.0f64);
+            for ny in y.saturating_sub(1)..(y + 2).min(height) {
+                let row = &values[ny * width..][x.saturating_sub(1)..(x + 2).min(width)];
+                for v in row.iter().flatten() {
+                    (0..3).for_each(|c| sum[c] += v[c]);
+                    k += 1.0;
+                }
+            }
+            let level = std::array::from_fn(|c| value[c].min(sum[c] / k));
+            pixel_error_against(&pixel(i), scale, halves, Against::Level(level))
+        })
+        .collect()
 }
 
 /// What a pixel's squared error is relative to.
@@ -122,15 +187,18 @@ pub struct ErrorEstimate {
 
 impl ErrorEstimate {
     /// The estimate from a film's sums (row-major over `bounds`, the image's
-    /// pixels) scaled as the image is by `scale`; `None` when no pixel has
-    /// samples in both halves (one sample per pixel).
+    /// pixels) scaled as the image is by `scale`: each pixel's
+    /// [`levelled_errors`]; `None` when no pixel has samples in both halves
+    /// (one sample per pixel).
     pub fn from_pixels(
         bounds: Bounds2i,
         pixels: &[Pixel],
         scale: f32,
         halves: HalfImages,
     ) -> Option<Self> {
-        Self::from_values(bounds, pixels.iter().map(|p| pixel_error(p, scale, halves)))
+        let size = (bounds.width().max(0) as usize, bounds.height().max(0) as usize);
+        let errors = levelled_errors(size, |i| pixels[i], scale, halves, |_| false);
+        Self::from_values(bounds, errors.into_iter())
     }
 
     /// The estimate from each pixel's [`pixel_error`], row-major over
@@ -264,6 +332,45 @@ mod tests {
         assert!((independent / sequence - 3f64.sqrt()).abs() < 1e-9, "{sequence}");
         let spread = at(HalfImages::Spread);
         assert!((independent / spread - 5f64.sqrt()).abs() < 1e-9, "{spread}");
+    }
+
+    #[test]
+    fn speckle_counts_against_its_neighbourhoods_level() {
+        // Every pixel's 64 samples are 0.1 but for a rare one of 50 (one
+        // in 96): a speckled film, each pixel's true value the same.
+        let b = Bounds2i::new(Point2i::new(0, 0), Point2i::new(64, 48));
+        let mut t = FilmTile::new(b);
+        let mut rng = Rng::new(11);
+        let (p, bright, dim) = (1.0 / 96.0, 50.0, 0.1);
+        for q in b.iter() {
+            for i in 0..64 {
+                let v = if rng.uniform_f32() < p { bright } else { dim };
+                t.add(q, Spectrum::new(v, v, v), 1.0, i >= 32);
+            }
+        }
+        let truth_value = f64::from(dim) + f64::from(p * (bright - dim));
+        let truth = b
+            .iter()
+            .zip(&t.pixels)
+            .map(|(_, px)| {
+                let a = f64::from(px.contrib[0] / px.weight);
+                (a - truth_value).powi(2) / (truth_value * truth_value + EPSILON)
+            })
+            .sum::<f64>()
+            / b.area() as f64;
+        let own: f64 = t
+            .pixels
+            .iter()
+            .filter_map(|px| pixel_error(px, 1.0, HalfImages::Independent))
+            .sum::<f64>()
+            / b.area() as f64;
+        let levelled =
+            ErrorEstimate::from_pixels(b, &t.pixels, 1.0, HalfImages::Independent).unwrap().rel_mse;
+        // Against its own value, a pixel that caught a bright sample
+        // divides its difference by that sample's brightness.
+        assert!(own < 0.5 * truth, "own value: {own} vs true {truth}");
+        let ratio = levelled / truth;
+        assert!((0.5..2.0).contains(&ratio), "levelled: {levelled} vs true {truth}");
     }
 
     #[test]

@@ -74,20 +74,26 @@ fn the_self_estimate_is_within_twice_the_true_error_wherever_it_is_claimed() {
     assert!(claimed >= 32, "only {claimed} estimates were claimed");
 }
 
+/// The project's own scenes for the estimate (`scenes/estimate/`), with
+/// C++ pbrt-v3's ground truth of `name`.
+fn project_scene(name: &str) -> (std::path::PathBuf, std::path::PathBuf) {
+    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../scenes/estimate");
+    (dir.join(format!("{name}.pbrt")), dir.join(format!("reference/{name}-gt.exr")))
+}
+
 /// `scenes/estimate/room.pbrt` (a room lit by 32 small ceiling lights) at
 /// 8 spp with the (0,2)-sequence, the issue's own case: most of the error
 /// is at the lights' edges, where one sample in eight found a light that
 /// covers a pixel by a few percent and most pixels found none. The halves
 /// see a sixth of it; the render must say its estimate is a lower bound,
-/// and its upper value must hold the true error (measured against the
-/// same render continued to 64 spp).
+/// and its upper value must hold the true error (against pbrt-v3's ground
+/// truth).
 #[test]
 fn a_small_lights_edges_make_the_estimate_a_lower_bound_whose_upper_value_holds_the_error() {
-    let path =
-        std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../scenes/estimate/room.pbrt");
+    let (path, reference) = project_scene("room");
     let opts = ConvergeOptions {
-        spp: vec![8, 64],
-        reference: None,
+        spp: vec![8],
+        reference: Some(reference),
         threads: 0,
         sampler: Some("02sequence".into()),
     };
@@ -98,6 +104,31 @@ fn a_small_lights_edges_make_the_estimate_a_lower_bound_whose_upper_value_holds_
     let upper = r.upper.expect("a lower bound, with an upper value");
     eprintln!("room at 8 spp: estimate {est:e}, upper {upper:e}, true {truth:e}");
     assert!(!r.claimed);
-    assert!(est < truth, "the halves alone: {est:e} against {truth:e}");
+    assert!(est < truth / 2.0, "the halves alone: {est:e} against {truth:e}");
     assert!((truth..=4.0 * truth).contains(&upper), "upper {upper:e} against {truth:e}");
+}
+
+/// `scenes/estimate/motion.pbrt` (moving objects lit by a sky whose small
+/// sun carries most of the light) at 64 spp: a rough metal box is
+/// speckled, each pixel's few bright samples far above the rest. Against
+/// each pixel's own value the estimate saw a third of the true error with
+/// Halton samples; against its neighbourhood's level it must be within 2×
+/// of pbrt-v3's ground truth, and claimed.
+#[test]
+fn speckle_under_a_small_sun_is_estimated_within_twice_the_true_error() {
+    let (path, reference) = project_scene("motion");
+    for sampler in ["halton", "random"] {
+        let opts = ConvergeOptions {
+            spp: vec![64],
+            reference: Some(reference.clone()),
+            threads: 0,
+            sampler: Some(sampler.into()),
+        };
+        let series = converge::run(&path, &opts, |_, _| {}).expect("series renders");
+        let r = &series.rows[0];
+        let (truth, est) = (r.rel_mse.expect("measured"), r.estimate.expect("estimated"));
+        eprintln!("motion, {sampler} at 64 spp: estimate {est:e}, true {truth:e}");
+        assert!(r.claimed, "{sampler}: claimed");
+        assert!((0.5..=2.0).contains(&(est / truth)), "{sampler}: {est:e} against {truth:e}");
+    }
 }

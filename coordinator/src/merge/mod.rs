@@ -4,7 +4,7 @@
 //! they were, or in what order results came back.
 
 use crate::error::Error;
-use crate::estimate::{find_fireflies, pixel_error, ErrorEstimate};
+use crate::estimate::{find_fireflies, levelled_errors, pixel_error, suspects, ErrorEstimate};
 use farm_common::film::{resolve, FilmGeometry, FilmTile, HalfImages};
 use farm_common::geometry::{Bounds2i, Point2i};
 use farm_common::ids::TileId;
@@ -219,33 +219,25 @@ impl Film {
     }
 
     /// The render's estimate of its own error (`None` at one sample per
-    /// pixel): [`ErrorEstimate::from_pixels`] of the merged film, its
-    /// pixels' errors summed tile by tile, as [`Film::running_estimate`]
-    /// sums them, so a watched render (whose running estimate has taken in
-    /// most tiles already) and an unwatched one give the same bits, and no
-    /// pixel's error is computed twice.
+    /// pixel) once every tile is merged: each pixel's
+    /// [`levelled_errors`](crate::estimate::levelled_errors), summed
+    /// row-major, so a watched render and an unwatched one give the same
+    /// bits. From then on the running estimate is this one.
     ///
     /// `spp` is the samples per pixel merged: it sets how far apart a
     /// firefly's halves must be ([`crate::estimate::fireflies::apart`]).
     pub fn error_estimate(&mut self, spp: u32) -> Option<ErrorEstimate> {
-        self.running_estimate()?;
         let b = self.geometry.cropped_pixel_bounds;
-        let (width, height) = (b.width() as usize, b.height() as usize);
-        let r = &self.running;
-        let fireflies = find_fireflies(
-            (width, height),
-            |i| self.sums.pixel(i),
-            self.geometry.scale,
-            (self.halves, spp),
-            (r.sum, r.counted),
-        );
-        Some(ErrorEstimate {
-            fireflies,
-            width,
-            height,
-            per_pixel: r.map.clone(),
-            rel_mse: r.sum / r.counted as f64,
-        })
+        let size = (b.width().max(0) as usize, b.height().max(0) as usize);
+        let (scale, halves) = (self.geometry.scale, self.halves);
+        let pixel = |i| self.sums.pixel(i);
+        let suspects = suspects(size, pixel, scale, spp);
+        let errors = levelled_errors(size, pixel, scale, halves, |i| suspects.is_firefly(i));
+        let mut estimate = ErrorEstimate::from_values(b, errors.iter().copied())?;
+        estimate.fireflies = find_fireflies(size, pixel, scale, halves, suspects, &errors);
+        let (sum, counted) = errors.iter().flatten().fold((0.0, 0), |(s, k), e| (s + e, k + 1));
+        self.running = Running { map: estimate.per_pixel.clone(), sum, counted, upto: self.next };
+        Some(estimate)
     }
 
     /// The estimate a render in passes decides by after a pass:
