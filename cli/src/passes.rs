@@ -23,10 +23,12 @@ pub fn caveat(sampler: SamplerKind, in_passes: bool) -> Option<&'static str> {
     }
 }
 
-/// Why a render's estimate is a lower bound, and what it could be.
+/// Why a render's estimate is a lower bound, and what counting the pixels
+/// it cannot measure gives (not a bound: where no sample found a light,
+/// nothing can count what is missing).
 pub fn fireflies(f: &Fireflies) -> String {
     format!(
-        "the estimate is a lower bound: {} pixels rest on rare bright samples (fireflies, or the edges of small lights that few samples found), whose error it cannot measure; counting them the relMSE may be up to {:.3e}; the brightest is at ({}, {})",
+        "the estimate is a lower bound: {} pixels rest on rare bright samples (fireflies, or the edges of small lights that few samples found), whose error it cannot measure; counting their error as those samples show it gives {:.3e}, and the true error may be higher still where a light was found by few samples or none; the brightest is at ({}, {})",
         f.pixels, f.rel_mse, f.brightest.0, f.brightest.1
     )
 }
@@ -78,7 +80,7 @@ mod tests {
     fn fireflies_say_the_estimate_is_a_lower_bound_and_where_they_are() {
         let f = Fireflies { pixels: 209, rel_mse: 0.52, brightest: (168, 348) };
         let line = fireflies(&f);
-        for part in ["lower bound", "209 pixels", "5.200e-1", "(168, 348)"] {
+        for part in ["lower bound", "209 pixels", "gives 5.200e-1", "higher still", "(168, 348)"] {
             assert!(line.contains(part), "{line}");
         }
     }
