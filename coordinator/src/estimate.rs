@@ -93,27 +93,52 @@ pub fn levelled_errors(
     halves: HalfImages,
     own: impl Fn(usize) -> bool,
 ) -> Vec<Option<f64>> {
-    let values: Vec<Option<[f64; 3]>> =
-        (0..width * height).map(|i| sampled_value(&pixel(i), scale)).collect();
-    (0..values.len())
-        .map(|i| {
-            let value = values[i]?;
+    // A row's values with a count of 1 (zeros where a half has no
+    // samples), and their sums over 3 pixels across; the 3 × 3 sums add
+    // three rows of those, so only three rows are held at a time.
+    let add = |a: &mut [f64; 4], b: &[f64; 4]| (0..4).for_each(|c| a[c] += b[c]);
+    let row = |y: usize| -> (Vec<[f64; 4]>, Vec<[f64; 4]>) {
+        let values: Vec<[f64; 4]> = (y * width..(y + 1) * width)
+            .map(|i| sampled_value(&pixel(i), scale).map_or([0.0; 4], |v| [v[0], v[1], v[2], 1.0]))
+            .collect();
+        let mut across = values.clone();
+        for (x, a) in across.iter_mut().enumerate() {
+            if x > 0 {
+                add(a, &values[x - 1]);
+            }
+            if x + 1 < width {
+                add(a, &values[x + 1]);
+            }
+        }
+        (values, across)
+    };
+    let mut errors = Vec::with_capacity(width * height);
+    let (mut above, mut here) = (None, (height > 0).then(|| row(0)));
+    for y in 0..height {
+        let below = (y + 1 < height).then(|| row(y + 1));
+        let (values, across) = here.as_ref().expect("a row is held for each y");
+        for x in 0..width {
+            let i = y * width + x;
+            let value = values[x];
+            if value[3] == 0.0 {
+                errors.push(None);
+                continue;
+            }
             if own(i) {
-                return pixel_error(&pixel(i), scale, halves);
+                errors.push(pixel_error(&pixel(i), scale, halves));
+                continue;
             }
-            let (x, y) = (i % width, i / width);
-            let (mut sum, mut k) = ([0.0f64; 3], 0.0f64);
-            for ny in y.saturating_sub(1)..(y + 2).min(height) {
-                let row = &values[ny * width..][x.saturating_sub(1)..(x + 2).min(width)];
-                for v in row.iter().flatten() {
-                    (0..3).for_each(|c| sum[c] += v[c]);
-                    k += 1.0;
-                }
+            let mut sum = across[x];
+            for (_, other) in above.iter().chain(below.iter()) {
+                add(&mut sum, &other[x]);
             }
-            let level = std::array::from_fn(|c| value[c].min(sum[c] / k));
-            pixel_error_against(&pixel(i), scale, halves, Against::Level(level))
-        })
-        .collect()
+            let level = std::array::from_fn(|c| value[c].min(sum[c] / sum[3]));
+            errors.push(pixel_error_against(&pixel(i), scale, halves, Against::Level(level)));
+        }
+        above = here;
+        here = below;
+    }
+    errors
 }
 
 /// What a pixel's squared error is relative to.
