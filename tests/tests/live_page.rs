@@ -57,7 +57,9 @@ impl Page {
             let (x, y, pw, ph, kind) =
                 (word(at), word(at + 1), word(at + 2), word(at + 3), word(at + 4));
             at += 5;
-            done_pixels += (pw * ph) as usize;
+            if kind != 2 {
+                done_pixels += (pw * ph) as usize;
+            }
             let index = |k: u32| ((y + k / pw) * w + x + k % pw) as usize;
             if kind != 2 {
                 for k in 0..pw * ph {

@@ -20,9 +20,10 @@
 //!
 //! While running, a pixel shows max(Σw·c / Σw, 0) · scale (Σw·c · scale
 //! where Σw is 0). Once the job is done, a page that was looking as it
-//! ended is sent the written pixel values and error map of the tiles it
-//! had not seen merged; any other page, the whole image as one piece,
-//! copied as the journal holds it.
+//! ended is sent the written pixel values of the tiles it had not seen
+//! merged, and the whole finished error map (which differs from the
+//! running one); any other page, the whole image as one piece, copied as
+//! the journal holds it.
 
 use super::{may_touch, Caller, Web};
 use crate::live::{shift, strips};
@@ -169,8 +170,10 @@ pub fn running(film: &Film, from: usize, merged: u32, max_pixels: usize) -> Vec<
 }
 
 /// A finished image's answer for a page that had seen `merged` tiles of
-/// the film laid out as `g` merged: their written values and error map
-/// over the tiles' final pixels it had not.
+/// the film laid out as `g` merged: the written values of the tiles'
+/// final pixels it had not, then the whole error map as one piece (the
+/// finished estimate counts each pixel against its neighbourhood's level,
+/// so it differs from the running one the page was sent).
 pub fn finished_since(
     image: &RgbImage,
     error: Option<&[f32]>,
@@ -186,20 +189,19 @@ pub fn finished_since(
     if merged == 0 || (cropped.width() as usize, cropped.height() as usize) != (w, h) {
         return finished(image, error);
     }
-    let mut out = Header::done(w as u32, h as u32, g.tile_count(), regions.len()).bytes();
-    let kind = if error.is_some() { PIXELS_AND_ERROR } else { PIXELS };
+    let pieces = regions.len() + usize::from(error.is_some());
+    let mut out = Header::done(w as u32, h as u32, g.tile_count(), pieces).bytes();
     for r in regions {
-        piece_header(&mut out, r, kind);
-        let rows = r.min.y as usize..r.max.y as usize;
+        piece_header(&mut out, r, PIXELS);
         let cols = r.min.x as usize..r.max.x as usize;
-        for y in rows.clone() {
+        for y in r.min.y as usize..r.max.y as usize {
             extend_f32s(&mut out, image.pixels[y * w..][cols.clone()].as_flattened());
         }
-        if let Some(e) = error {
-            for y in rows.clone() {
-                extend_f32s(&mut out, &e[y * w..][cols.clone()]);
-            }
-        }
+    }
+    if let Some(e) = error {
+        let all = Bounds2i::new(Point2i::new(0, 0), Point2i::new(w as i32, h as i32));
+        piece_header(&mut out, all, ERROR);
+        extend_f32s(&mut out, e);
     }
     out
 }
@@ -389,9 +391,9 @@ mod tests {
             assert_eq!(&u[..5], &[40, 20, 0, n, DONE]);
             let mut drawn = vec![0; b.area()];
             let mut at = 7;
-            for _ in 0..u[6] {
+            for _ in 0..u[6] - 1 {
                 let (x, y, w, h, kind) = (u[at], u[at + 1], u[at + 2], u[at + 3], u[at + 4]);
-                assert_eq!(kind, PIXELS_AND_ERROR);
+                assert_eq!(kind, PIXELS);
                 at += 5;
                 let r = Bounds2i::new(
                     Point2i::new(x as i32, y as i32),
@@ -400,13 +402,14 @@ mod tests {
                 for (k, p) in r.iter().enumerate() {
                     let i = b.offset(p);
                     assert_eq!(f32::from_bits(u[at + 3 * k]), i as f32, "the written value");
-                    let e = at + 3 * r.area() + k;
-                    assert_eq!(f32::from_bits(u[e]), error[i], "its error");
                     drawn[i] += 1;
                 }
-                at += 4 * r.area();
+                at += 3 * r.area();
             }
-            assert_eq!(at, u.len());
+            // Then the whole error map.
+            assert_eq!(&u[at..at + 5], &[0, 0, 40, 20, ERROR]);
+            let sent: Vec<f32> = u[at + 5..].iter().map(|&v| f32::from_bits(v)).collect();
+            assert_eq!(sent, error);
             let unseen = |p: Point2i| (seen..n).any(|t| g.tile_final_pixels(TileId(t)).contains(p));
             for p in b.iter() {
                 assert_eq!(drawn[b.offset(p)], i32::from(unseen(p)), "{p:?} after {seen}");
