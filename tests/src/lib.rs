@@ -33,7 +33,11 @@ pub fn render_text(name: &str, source: &str, opts: &SubmitOptions) -> RenderSumm
     std::fs::create_dir_all(&dir).expect("temp dir");
     let path = dir.join(format!("{name}.pbrt"));
     std::fs::write(&path, source).expect("write scene");
-    match submit::render(&path, opts, |_| {}) {
+    let rendered = submit::render(&path, opts, |_| {});
+    // The scene's folder goes once it is read (a test that writes the
+    // image beside it names its own path).
+    let _ = std::fs::remove_dir_all(&dir);
+    match rendered {
         Ok(s) => s,
         Err(e) => panic!("rendering {name} failed: {e}"),
     }
