@@ -29,7 +29,10 @@ pub use farm_cli::bench::{reference_scenes, ReferenceScene};
 
 /// Writes `source` to a temporary scene file and renders it in-process.
 pub fn render_text(name: &str, source: &str, opts: &SubmitOptions) -> RenderSummary {
-    let dir = std::env::temp_dir().join(format!("farm-test-{}-{name}", std::process::id()));
+    // A folder of its own, even for two tests that render the same name.
+    static NEXT: std::sync::atomic::AtomicUsize = std::sync::atomic::AtomicUsize::new(0);
+    let n = NEXT.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+    let dir = std::env::temp_dir().join(format!("farm-test-{}-{n}-{name}", std::process::id()));
     std::fs::create_dir_all(&dir).expect("temp dir");
     let path = dir.join(format!("{name}.pbrt"));
     std::fs::write(&path, source).expect("write scene");

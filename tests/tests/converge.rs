@@ -85,7 +85,7 @@ fn project_scene(name: &str) -> (std::path::PathBuf, std::path::PathBuf) {
 /// 8 spp with the (0,2)-sequence, the issue's own case: most of the error
 /// is at the lights' edges, where one sample in eight found a light that
 /// covers a pixel by a few percent and most pixels found none. The halves
-/// see a sixth of it; the render must say its estimate is a lower bound,
+/// see a fifth of it; the render must say its estimate is a lower bound,
 /// and its upper value must hold the true error (against pbrt-v3's ground
 /// truth).
 #[test]

@@ -22,7 +22,7 @@
 //! that hit it are several times their true value (so the estimate
 //! divides by too much). On a room lit by small ceiling lights at 8 spp,
 //! such pixels held nearly all the true error, and the estimate saw a
-//! sixth of it. Along the edge, the mean of a run of pixels is near their
+//! fifth of it. Along the edge, the mean of a run of pixels is near their
 //! true level: the run is the pixel and two neighbours each way, across
 //! the row or down the column, whichever is more even (the edge's own
 //! direction). An edge pixel's error is counted against that level, and
@@ -36,8 +36,9 @@
 //! veach-mis at 64 spp the true error is 1.1 to 2.3 times it). When
 //! counting them makes the estimate more than [`MATERIAL`] times what it
 //! is, the estimate is a lower bound; when they add less, it already
-//! holds what they could add, to within the 2× it claims. (Fewer than [`MIN_PIXELS`] fireflies are counted as edge
-//! pixels: a lone one is usually the corner of a light.)
+//! holds what they could add, to within the 2× it claims. (Fewer than
+//! [`MIN_PIXELS`] fireflies are counted as edge pixels: a lone one is
+//! usually the corner of a light.)
 
 use super::{pixel_error_against, Against, EPSILON};
 use farm_common::film::{HalfImages, Pixel};

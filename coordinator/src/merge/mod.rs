@@ -64,6 +64,7 @@ pub struct Film {
 /// time when asked: each complete pixel's value as the error map shows it
 /// (0 where a half has no samples or the pixel is not complete yet), the
 /// sum and count of the values, and the tiles taken in so far.
+/// [`Film::error_estimate`] replaces it with the finished estimate.
 #[derive(Debug, Default)]
 struct Running {
     map: Vec<f32>,
@@ -246,12 +247,13 @@ impl Film {
         self.error_estimate(spp).map(|e| e.upper())
     }
 
-    /// The estimate of [`Film::error_estimate`] over the pixels whose sums
-    /// are complete ([`FilmGeometry::tile_final_pixels`] of the tiles
-    /// merged so far), for a running job's display. Each pixel's error is
-    /// computed once, when its last tile is merged, so asking often costs
-    /// little (the first call allocates 4 bytes a pixel); once every tile
-    /// is in, [`Film::error_estimate`] reads it off.
+    /// The estimate over the pixels whose sums are complete
+    /// ([`FilmGeometry::tile_final_pixels`] of the tiles merged so far),
+    /// each against its own value, for a running job's display. Each
+    /// pixel's error is computed once, when its last tile is merged, so
+    /// asking often costs little (the first call allocates 4 bytes a
+    /// pixel); once [`Film::error_estimate`] has run, it holds the finished
+    /// estimate.
     pub fn running_estimate(&mut self) -> Option<f64> {
         let g = &self.geometry;
         let b = g.cropped_pixel_bounds;

@@ -4,7 +4,8 @@
 //! since: the pixels whose sums became complete, as the film's sums,
 //! unresolved, and the error map over the pixels of the tiles merged since
 //! (the running estimate's, [`FilmGeometry::tile_final_pixels`]). Each
-//! pixel and its error are sent once. The coordinator only copies; the
+//! pixel and its error are sent once while the job runs (the finished
+//! error map once more at its end). The coordinator only copies; the
 //! page divides, tone-maps and colours (`dashboard.js`). All numbers
 //! little-endian, every field 4 bytes:
 //!
