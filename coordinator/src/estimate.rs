@@ -69,15 +69,24 @@ pub fn pixel_error(p: &Pixel, scale: f32, halves: HalfImages) -> Option<f64> {
     pixel_error_against(p, scale, halves, Against::Value)
 }
 
-/// A pixel's value per channel, as [`pixel_error_against`] takes it, or
-/// `None` when a half has no samples there.
-fn sampled_value(p: &Pixel, scale: f32) -> Option<[f64; 3]> {
+/// A pixel's sums of filter weights, all and each half's, or `None` when
+/// a half has no samples there.
+pub(crate) fn half_weights(p: &Pixel) -> Option<(f64, f64, f64)> {
     let w = f64::from(p.weight);
     let w_b = f64::from(p.second_weight);
     let w_a = w - w_b;
-    if w == 0.0 || w_a == 0.0 || w_b == 0.0 {
-        return None;
-    }
+    (w != 0.0 && w_a != 0.0 && w_b != 0.0).then_some((w, w_a, w_b))
+}
+
+/// The sum and count of the pixels' errors that are counted, in order.
+pub(crate) fn sum_counted(errors: &[Option<f64>]) -> (f64, usize) {
+    errors.iter().flatten().fold((0.0, 0), |(s, k), e| (s + e, k + 1))
+}
+
+/// A pixel's value per channel, as [`pixel_error_against`] takes it, or
+/// `None` when a half has no samples there.
+fn sampled_value(p: &Pixel, scale: f32) -> Option<[f64; 3]> {
+    let (w, _, _) = half_weights(p)?;
     Some(p.contrib.map(|c| (f64::from(c) / w).max(0.0) * f64::from(scale)))
 }
 
@@ -165,12 +174,7 @@ pub fn pixel_error_against(
     against: Against,
 ) -> Option<f64> {
     let scale = f64::from(scale);
-    let w = f64::from(p.weight);
-    let w_b = f64::from(p.second_weight);
-    let w_a = w - w_b;
-    if w == 0.0 || w_a == 0.0 || w_b == 0.0 {
-        return None;
-    }
+    let (w, w_a, w_b) = half_weights(p)?;
     // E[(A − B)²] times this is g · R (see the module documentation).
     let (times, g) = match halves {
         HalfImages::Independent => (w_a * w_b / (w * w), 1.0),

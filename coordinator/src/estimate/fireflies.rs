@@ -40,7 +40,7 @@
 //! [`MIN_PIXELS`] fireflies are counted as edge pixels: a lone one is
 //! usually the corner of a light.)
 
-use super::{pixel_error_against, Against, EPSILON};
+use super::{half_weights, pixel_error_against, sum_counted, Against, EPSILON};
 use farm_common::film::{HalfImages, Pixel};
 use std::collections::btree_map::{BTreeMap, Entry};
 
@@ -81,12 +81,7 @@ pub struct Fireflies {
 
 /// A pixel's value (the mean of its channels) and its halves'.
 fn levels(p: &Pixel, scale: f64) -> Option<(f64, f64, f64)> {
-    let w = f64::from(p.weight);
-    let w_b = f64::from(p.second_weight);
-    let w_a = w - w_b;
-    if w == 0.0 || w_a == 0.0 || w_b == 0.0 {
-        return None;
-    }
+    let (w, w_a, w_b) = half_weights(p)?;
     let mean = |v: [f32; 3]| v.iter().map(|&x| f64::from(x)).sum::<f64>() / 3.0;
     let all = mean(p.contrib);
     let second = mean(p.second_contrib);
@@ -181,7 +176,7 @@ pub fn find(
     Suspects { values, mut fireflies, mut edges }: Suspects,
     errors: &[Option<f64>],
 ) -> Option<Fireflies> {
-    let (sum, counted) = errors.iter().flatten().fold((0.0, 0usize), |(s, k), e| (s + e, k + 1));
+    let (sum, counted) = sum_counted(errors);
     let sampled = |j: usize| Some(values[j]).filter(|v| !v.is_nan());
     let value = |j: usize| sampled(j).unwrap_or(0.0);
     if fireflies.len() < MIN_PIXELS {
@@ -316,7 +311,7 @@ mod tests {
 
     /// The estimate's sum and count over `t`.
     fn estimate(t: &FilmTile, spp: u32) -> (f64, usize) {
-        errors(t, spp).1.iter().flatten().fold((0.0, 0), |(s, k), e| (s + e, k + 1))
+        sum_counted(&errors(t, spp).1)
     }
 
     fn run(t: &FilmTile, spp: u32) -> Option<Fireflies> {

@@ -4,7 +4,9 @@
 //! they were, or in what order results came back.
 
 use crate::error::Error;
-use crate::estimate::{find_fireflies, levelled_errors, pixel_error, suspects, ErrorEstimate};
+use crate::estimate::{
+    find_fireflies, levelled_errors, pixel_error, sum_counted, suspects, ErrorEstimate,
+};
 use farm_common::film::{resolve, FilmGeometry, FilmTile, HalfImages};
 use farm_common::geometry::{Bounds2i, Point2i};
 use farm_common::ids::TileId;
@@ -236,7 +238,7 @@ impl Film {
         let errors = levelled_errors(size, pixel, scale, halves, |i| suspects.is_firefly(i));
         let mut estimate = ErrorEstimate::from_values(b, errors.iter().copied())?;
         estimate.fireflies = find_fireflies(size, pixel, scale, halves, suspects, &errors);
-        let (sum, counted) = errors.iter().flatten().fold((0.0, 0), |(s, k), e| (s + e, k + 1));
+        let (sum, counted) = sum_counted(&errors);
         self.running = Running { map: estimate.per_pixel.clone(), sum, counted, upto: self.next };
         Some(estimate)
     }
