@@ -369,10 +369,10 @@ pub fn render_parsed_with(
             })
             .ok()
     });
-    let render = move |tile, samples: Option<SampleRange>| match samples {
-        Some(r) => renderer.render_tile_samples(tile, r),
-        None => renderer.render_tile(tile),
-    };
+    // On the pool's threads: a stateless sampler's tile spreads its pixels
+    // over them, so the last tiles of a frame do not leave threads idle.
+    let render =
+        move |tile, samples: Option<SampleRange>| renderer.render_tile_parallel(tile, samples);
     let job = LocalJob { geometry, spp, name: name.clone(), passes };
     let finished = run_job_with(render, job, opts.threads, display.as_mut(), progress, on_pass)?;
     let render_seconds = t.elapsed().as_secs_f64();

@@ -21,6 +21,15 @@ use farm_common::Spectrum;
 /// Entries per axis of the precomputed filter table (pbrt-v3's 16).
 const FILTER_TABLE_SIZE: usize = 16;
 
+/// One traced sample, kept until it is splatted in its turn.
+#[derive(Clone, Copy, Debug, Default)]
+struct Traced {
+    p_film: Vec2,
+    l: Spectrum,
+    weight: f32,
+    second_half: bool,
+}
+
 /// Choices that override the scene file.
 #[derive(Clone, Debug, Default, PartialEq, Eq)]
 pub struct RenderOptions {
@@ -210,6 +219,145 @@ impl Renderer {
         self.render_samples(id, Some(range))
     }
 
+    /// Renders one tile, or samples `range` of its pixels, spreading its
+    /// pixels over the current rayon pool's threads when the sampler is
+    /// stateless (Halton, Sobol': [`Renderer::tiles_parallel`]). The bits
+    /// are those of [`Renderer::render_tile`] and
+    /// [`Renderer::render_tile_samples`]: each pixel draws the same samples
+    /// and the samples are splatted in the same order, after all are
+    /// traced. A sampler with state draws a tile's pixels from one
+    /// generator in turn, so its tiles render on this thread alone.
+    pub fn render_tile_parallel(
+        &self,
+        id: TileId,
+        range: Option<SampleRange>,
+    ) -> (FilmTile, RayStats) {
+        if self.tiles_parallel() {
+            self.render_pixels_parallel(id, range)
+        } else {
+            self.render_samples(id, range)
+        }
+    }
+
+    /// Whether [`Renderer::render_tile_parallel`] spreads a tile's pixels
+    /// over threads: whether each pixel's samples depend on the pixel
+    /// alone.
+    pub fn tiles_parallel(&self) -> bool {
+        self.sampler.is_stateless()
+    }
+
+    fn render_pixels_parallel(
+        &self,
+        id: TileId,
+        range: Option<SampleRange>,
+    ) -> (FilmTile, RayStats) {
+        use rayon::prelude::*;
+        let seed = self.film.tile_seed(id);
+        let base = self.sampler.clone_with_seed(seed);
+        let halves = base.halves();
+        let diff_scale = self.diff_scale();
+        let (first, end) = range.map_or((0, u32::MAX), |r| (r.first, r.end));
+        let pixels: Vec<Point2i> = self
+            .film
+            .tile_sample_bounds(id)
+            .iter()
+            .filter(|p| self.film.sample_bounds.contains(*p) && self.pixel_bounds.contains(*p))
+            .collect();
+        let mut tile = FilmTile::new(self.film.tile_pixel_bounds(id));
+        let n = end.min(base.samples_per_pixel()).saturating_sub(first).max(1) as usize;
+        let mut traced = vec![Traced::default(); pixels.len() * n];
+        let mut counts = vec![0usize; pixels.len()];
+        let stats = traced
+            .par_chunks_mut(n)
+            .zip(counts.par_iter_mut())
+            .zip(pixels.par_iter())
+            .map_init(
+                || base.clone(),
+                |sampler, ((out, count), &pixel)| {
+                    let mut stats = RayStats::default();
+                    sampler.start_pixel(pixel);
+                    if first > 0 {
+                        sampler.set_sample_number(u64::from(first));
+                    }
+                    let mut index = first;
+                    for slot in out.iter_mut() {
+                        *slot = self
+                            .trace(sampler, pixel, index, range, halves, diff_scale, &mut stats);
+                        *count += 1;
+                        index += 1;
+                        if index >= end || !sampler.start_next_sample() {
+                            break;
+                        }
+                    }
+                    stats
+                },
+            )
+            .reduce(RayStats::default, |mut a, b| {
+                a.add(&b);
+                a
+            });
+        for (samples, &count) in traced.chunks(n).zip(&counts) {
+            for t in &samples[..count] {
+                self.add_sample(&mut tile, t.p_film, t.l, t.weight, t.second_half);
+            }
+        }
+        (tile, stats)
+    }
+
+    /// Ray differentials are scaled for the job's samples per pixel (a
+    /// pass render's cap), as a one-shot render of the job would be.
+    fn diff_scale(&self) -> f32 {
+        1.0 / (self.sampler.samples_per_pixel() as f32).sqrt()
+    }
+
+    /// Traces sample `index` of `pixel`: where it lands, its radiance
+    /// (black when pbrt-v3 would drop it), its weight and its half.
+    #[allow(clippy::too_many_arguments)]
+    #[inline]
+    fn trace(
+        &self,
+        sampler: &mut Sampler,
+        pixel: Point2i,
+        index: u32,
+        range: Option<SampleRange>,
+        halves: farm_common::film::Halves,
+        diff_scale: f32,
+        stats: &mut RayStats,
+    ) -> Traced {
+        let cs = sampler.camera_sample_for(pixel, self.camera_dims);
+        let offset = cs.p_film - Vec2::new(pixel.x as f32, pixel.y as f32);
+        let second_half = match range {
+            Some(r) if !r.own_halves => index >= r.second_from,
+            Some(r) => halves.is_second(index - r.first, offset),
+            None => halves.is_second(index, offset),
+        };
+        let (weight, ray) = if self.differentials {
+            let (weight, mut ray) = self.camera.generate_ray_differential(&cs);
+            ray.scale_differentials(diff_scale);
+            (weight, ray)
+        } else {
+            let (weight, ray) = self.camera.generate_ray(&cs);
+            (weight, RayDifferential::new(ray))
+        };
+        stats.camera_rays += 1;
+        let mut l = Spectrum::ZERO;
+        if weight > 0.0 {
+            l = self.integrator.li(&ray, &self.world, sampler, 0, stats);
+        }
+        // Guard the film against bad radiance, as pbrt-v3 does.
+        if l.has_nan() {
+            stats.nan_samples += 1;
+            l = Spectrum::ZERO;
+        } else if l.y() < -1e-5 {
+            stats.negative_samples += 1;
+            l = Spectrum::ZERO;
+        } else if l.y().is_infinite() {
+            stats.inf_samples += 1;
+            l = Spectrum::ZERO;
+        }
+        Traced { p_film: cs.p_film, l, weight, second_half }
+    }
+
     fn render_samples(&self, id: TileId, range: Option<SampleRange>) -> (FilmTile, RayStats) {
         let mut stats = RayStats::default();
         let seed = self.film.tile_seed(id);
@@ -227,9 +375,7 @@ impl Renderer {
         // sampler with state needs the samples, to reach the state it has
         // for the samples inside.
         let mut tile = FilmTile::new(self.film.tile_pixel_bounds(id));
-        // Differentials are scaled for the job's samples per pixel (a pass
-        // render's cap), as a one-shot render of the job would be.
-        let diff_scale = 1.0 / (self.sampler.samples_per_pixel() as f32).sqrt();
+        let diff_scale = self.diff_scale();
         let halves = sampler.halves();
         let (first, end) = range.map_or((0, u32::MAX), |r| (r.first, r.end));
         for pixel in bounds.iter() {
@@ -249,38 +395,9 @@ impl Renderer {
             }
             let mut index = first;
             loop {
-                let cs = sampler.camera_sample_for(pixel, self.camera_dims);
-                let offset = cs.p_film - Vec2::new(pixel.x as f32, pixel.y as f32);
-                let second_half = match range {
-                    Some(r) if !r.own_halves => index >= r.second_from,
-                    Some(r) => halves.is_second(index - r.first, offset),
-                    None => halves.is_second(index, offset),
-                };
-                let (weight, ray) = if self.differentials {
-                    let (weight, mut ray) = self.camera.generate_ray_differential(&cs);
-                    ray.scale_differentials(diff_scale);
-                    (weight, ray)
-                } else {
-                    let (weight, ray) = self.camera.generate_ray(&cs);
-                    (weight, RayDifferential::new(ray))
-                };
-                stats.camera_rays += 1;
-                let mut l = Spectrum::ZERO;
-                if weight > 0.0 {
-                    l = self.integrator.li(&ray, &self.world, &mut sampler, 0, &mut stats);
-                }
-                // Guard the film against bad radiance, as pbrt-v3 does.
-                if l.has_nan() {
-                    stats.nan_samples += 1;
-                    l = Spectrum::ZERO;
-                } else if l.y() < -1e-5 {
-                    stats.negative_samples += 1;
-                    l = Spectrum::ZERO;
-                } else if l.y().is_infinite() {
-                    stats.inf_samples += 1;
-                    l = Spectrum::ZERO;
-                }
-                self.add_sample(&mut tile, cs.p_film, l, weight, second_half);
+                let t =
+                    self.trace(&mut sampler, pixel, index, range, halves, diff_scale, &mut stats);
+                self.add_sample(&mut tile, t.p_film, t.l, t.weight, t.second_half);
                 index += 1;
                 if index >= end || !sampler.start_next_sample() {
                     break;

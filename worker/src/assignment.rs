@@ -80,10 +80,8 @@ pub async fn render_tile(
                 return None;
             }
             let started = std::time::Instant::now();
-            let (film_tile, stats) = match samples {
-                Some(r) => renderer.render_tile_samples(TileId(tile), r),
-                None => renderer.render_tile(TileId(tile)),
-            };
+            // A stateless sampler's tile spreads its pixels over the pool.
+            let (film_tile, stats) = renderer.render_tile_parallel(TileId(tile), samples);
             Some((v1::FilmTile::from(&film_tile), v1::RayStats::from(&stats), started.elapsed()))
         })
         .await;
