@@ -226,6 +226,9 @@ where
         blobs: Vec::new(),
         shot: None,
         passes: job.passes,
+        // The one worker here holds its usual slots: nothing waits on a
+        // slower worker's share, and its tiles spread over the pool anyway.
+        parallel_tiles: false,
     };
     let (results, inbox) = mpsc::channel();
     let mut out = LocalOutbox {

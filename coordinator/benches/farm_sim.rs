@@ -5,6 +5,13 @@
 //! answering heartbeats). Prints a table; a case that has not finished
 //! after 600 virtual seconds says so.
 //!
+//! Each case runs in two ways: `per-thread`, a tile per thread, as a
+//! sampler with state renders (66 tiles held, what a worker of 16 threads
+//! asks for); and `parallel`, each tile on all of a worker's threads in
+//! turn, as Halton and Sobol' render (`Renderer::render_tile_parallel`;
+//! the scheduler lets a worker hold 2 such tiles). Messages take 1 ms
+//! each way.
+//!
 //! ```sh
 //! cargo bench -p farm-coordinator --bench farm_sim
 //! FARM_SIM_MAX=1000 cargo bench -p farm-coordinator --bench farm_sim   # skip 10,000
@@ -24,8 +31,9 @@ fn main() {
         std::env::var("FARM_SIM_MAX").ok().and_then(|v| v.parse().ok()).unwrap_or(10_000);
     println!("simulated farm: 3840×2160 frame, 16 threads a worker, mean tile 1.2 thread-s");
     println!(
-        "{:>7} {:>11} {:>9} {:>10} {:>10} {:>7} {:>9} {:>9} {:>13}",
+        "{:>7} {:>10} {:>11} {:>9} {:>10} {:>10} {:>7} {:>9} {:>9} {:>13}",
         "workers",
+        "tiles",
         "case",
         "finished",
         "makespan",
@@ -39,8 +47,13 @@ fn main() {
         if workers > max {
             continue;
         }
-        for case in ["plain", "stragglers", "deaths", "stalls"] {
+        for (mode, case) in ["per-thread", "parallel"]
+            .into_iter()
+            .flat_map(|m| ["plain", "stragglers", "deaths", "stalls"].map(|c| (m, c)))
+        {
             let mut c = SimConfig::new(workers, 16, 3840, 2160, 1.2);
+            c.latency = std::time::Duration::from_millis(1);
+            c.parallel_tiles = mode == "parallel";
             // Long enough for the slowest case to end, or to show it will not.
             c.give_up_after = std::time::Duration::from_secs(600);
             match case {
@@ -51,8 +64,9 @@ fn main() {
             }
             let r = simulate(&c);
             println!(
-                "{:>7} {:>11} {:>9} {:>9.1}s {:>9.1}s {:>7.3} {:>9.1} {:>9} {:>13.2}",
+                "{:>7} {:>10} {:>11} {:>9} {:>9.2}s {:>9.2}s {:>7.3} {:>9.2} {:>9} {:>13.2}",
                 workers,
+                mode,
                 case,
                 r.finished,
                 r.makespan,

@@ -3,9 +3,15 @@
 //! machine has (10 to 10,000 workers) without rendering a pixel.
 //!
 //! Each virtual worker has a number of threads and a speed drawn from a
-//! seeded distribution (a few are 10× stragglers); it renders up to one
-//! tile per thread at once, each taking the tile's cost divided by its
-//! speed. Tile costs come from a seeded distribution around a mean (or
+//! seeded distribution (a few are 10× stragglers), and asks to hold
+//! [`SimConfig::in_flight`] tiles. It renders them in one of two ways
+//! ([`SimConfig::parallel_tiles`]): one tile per thread, each taking the
+//! tile's cost divided by its speed (a tile whose sampler has state,
+//! rendered pixel after pixel); or in turn, each on all its threads (a
+//! stateless sampler's tile, whose pixels `Renderer::render_tile_parallel`
+//! spreads over the pool; rayon's threads finish the work of the tile
+//! they are on before they take the next). Messages take
+//! [`SimConfig::latency`] each way. Tile costs come from a seeded distribution around a mean (or
 //! from a list, e.g. a real render's per-tile times). Workers may die
 //! (their session closes; the scheduler requeues their tiles) or stall
 //! (they keep answering heartbeats but never finish a tile). Results are
@@ -49,6 +55,17 @@ pub struct SimConfig {
     /// The fraction of workers that stop finishing tiles at a random
     /// moment but keep answering heartbeats.
     pub stalls: f64,
+    /// Tiles a worker asks to hold at once; 0 for what a real worker asks
+    /// (`farm_proto::default_in_flight`: 4 × threads + 2).
+    pub in_flight: u32,
+    /// Whether the job's tiles render on all of a worker's threads
+    /// (`JobSpec::parallel_tiles`): the scheduler then lets each worker
+    /// hold `SchedulerConfig::parallel_in_flight` of them, and the worker
+    /// renders them in turn, each on all its threads. Otherwise a worker
+    /// renders one tile per thread.
+    pub parallel_tiles: bool,
+    /// One-way delay of each message between coordinator and worker.
+    pub latency: Duration,
     /// The seed of every draw.
     pub seed: u64,
     /// Virtual time after which the simulation gives up.
@@ -70,8 +87,21 @@ impl SimConfig {
             stragglers: 0.0,
             deaths: 0.0,
             stalls: 0.0,
+            in_flight: 0,
+            parallel_tiles: false,
+            latency: Duration::ZERO,
             seed: 1,
             give_up_after: Duration::from_secs(24 * 3600),
+        }
+    }
+}
+
+impl SimConfig {
+    fn in_flight_or_default(&self) -> u32 {
+        if self.in_flight > 0 {
+            self.in_flight
+        } else {
+            farm_proto::default_in_flight(self.threads as usize)
         }
     }
 }
@@ -111,8 +141,15 @@ impl SimReport {
 /// What happens next in virtual time.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord)]
 enum Event {
-    /// A worker finished a tile it holds.
+    /// A worker finished a tile it holds (one tile per thread).
     Done { worker: u32, job: u64, tile: u32, attempt: u32 },
+    /// A worker rendering its tiles in turn finished the first: stale
+    /// unless `version` is still the worker's.
+    TurnDone { worker: u32, version: u64 },
+    /// A finished tile reaches the coordinator.
+    Arrives { worker: u32, job: u64, tile: u32, attempt: u32 },
+    /// A hand-out (index into `Sim::in_transit`) reaches its worker.
+    Delivered { worker: u32, index: u64 },
     /// A worker's session ends.
     Dies { worker: u32 },
     /// A worker stops finishing tiles.
@@ -148,6 +185,13 @@ struct Worker {
     busy_threads: u32,
     /// Tiles held but not started (all threads busy).
     queued: VecDeque<Assignment>,
+    /// With parallel tiles: the tiles held, in the order they came, the
+    /// first rendering on every thread; each with the work left in
+    /// thread-seconds at speed 1 (the first's as of `updated`).
+    turns: VecDeque<(Assignment, f64)>,
+    updated: u64,
+    /// Bumped whenever `turns` changes, to drop stale `TurnDone` events.
+    version: u64,
     dead: bool,
     stalled: bool,
 }
@@ -167,6 +211,8 @@ struct Sim {
     in_scheduler: Duration,
     merged_at: Vec<u64>,
     handed_out: u64,
+    in_transit: std::collections::HashMap<u64, Assignment>,
+    next_transit: u64,
 }
 
 fn ns(seconds: f64) -> u64 {
@@ -187,12 +233,78 @@ impl Sim {
         let t = Instant::now();
         f(&mut self.sched, &mut self.out, now);
         self.in_scheduler += t.elapsed();
+        let delay = ns(self.config.latency.as_secs_f64());
         for (w, a) in std::mem::take(&mut self.out.assigned) {
             self.handed_out += 1;
-            let wk = &mut self.workers[w.0 as usize];
-            wk.queued.push_back(a);
-            self.start(w.0 as u32);
+            if delay == 0 {
+                self.receive(w.0 as u32, a);
+            } else {
+                let index = self.next_transit;
+                self.next_transit += 1;
+                self.in_transit.insert(index, a);
+                self.at(self.now + delay, Event::Delivered { worker: w.0 as u32, index });
+            }
         }
+    }
+
+    /// A hand-out reaches its worker.
+    fn receive(&mut self, w: u32, a: Assignment) {
+        if self.config.parallel_tiles {
+            let cost = self.costs[a.tile.0 as usize];
+            let wk = &mut self.workers[w as usize];
+            if wk.dead || wk.stalled {
+                return;
+            }
+            wk.turns.push_back((a, cost));
+            if wk.turns.len() == 1 {
+                wk.updated = self.now;
+                self.next_turn(w);
+            }
+        } else {
+            self.workers[w as usize].queued.push_back(a);
+            self.start(w);
+        }
+    }
+
+    /// Schedules the end of a parallel worker's current tile, started (or
+    /// last updated) at `updated`.
+    fn next_turn(&mut self, w: u32) {
+        let rate = self.config.threads as f64;
+        let wk = &mut self.workers[w as usize];
+        wk.version += 1;
+        let version = wk.version;
+        if let Some((_, left)) = wk.turns.front() {
+            let when = wk.updated + ns(left / (rate * wk.speed));
+            self.at(when, Event::TurnDone { worker: w, version });
+        }
+    }
+
+    /// A worker finished a tile: the coordinator hears of it a latency later.
+    fn finished(&mut self, worker: u32, job: u64, tile: u32, attempt: u32) {
+        let delay = ns(self.config.latency.as_secs_f64());
+        if delay == 0 {
+            self.arrives(worker, job, tile, attempt);
+        } else {
+            self.at(self.now + delay, Event::Arrives { worker, job, tile, attempt });
+        }
+    }
+
+    fn arrives(&mut self, worker: u32, job: u64, tile: u32, attempt: u32) {
+        if self.workers[worker as usize].dead {
+            return;
+        }
+        let key = farm_common::ids::TileAttempt {
+            job: JobId(job),
+            tile: farm_common::ids::TileId(tile),
+            attempt,
+        };
+        let ft = FilmTile::new(self.geometry.tile_pixel_bounds(key.tile));
+        let now = self.now;
+        self.merged_at.push(now);
+        self.call(|s, out, at| {
+            s.heard_from(WorkerId(u64::from(worker)), at);
+            s.tile_done(WorkerId(u64::from(worker)), key, ft, RayStats::default(), out)
+        });
     }
 
     /// Starts queued tiles on a worker's free threads.
@@ -214,10 +326,11 @@ impl Sim {
     fn run(mut self) -> SimReport {
         let total = self.geometry.tile_count();
         let threads = self.config.threads;
+        let in_flight = self.config.in_flight_or_default();
         for w in 0..self.workers.len() {
             self.call(|s, out, now| {
                 let id = WorkerId(w as u64);
-                s.worker_joined(id, format!("w{w}"), threads, threads, now, out)
+                s.worker_joined(id, format!("w{w}"), threads, in_flight, now, out)
             });
         }
         let spec = JobSpec {
@@ -232,6 +345,7 @@ impl Sim {
             blobs: Vec::new(),
             shot: None,
             passes: None,
+            parallel_tiles: self.config.parallel_tiles,
         };
         self.call(|s, out, _| {
             s.submit(spec, out);
@@ -272,24 +386,33 @@ impl Sim {
                     return;
                 }
                 wk.busy_threads -= 1;
-                let key = farm_common::ids::TileAttempt {
-                    job: JobId(job),
-                    tile: farm_common::ids::TileId(tile),
-                    attempt,
-                };
-                let ft = FilmTile::new(self.geometry.tile_pixel_bounds(key.tile));
-                let now = self.now;
-                self.merged_at.push(now);
-                self.call(|s, out, at| {
-                    s.heard_from(WorkerId(u64::from(worker)), at);
-                    s.tile_done(WorkerId(u64::from(worker)), key, ft, RayStats::default(), out)
-                });
+                self.finished(worker, job, tile, attempt);
                 self.start(worker);
+            }
+            Event::TurnDone { worker, version } => {
+                let now = self.now;
+                let wk = &mut self.workers[worker as usize];
+                if wk.dead || wk.stalled || wk.version != version {
+                    return;
+                }
+                let Some((a, _)) = wk.turns.pop_front() else { return };
+                wk.updated = now;
+                self.next_turn(worker);
+                self.finished(worker, a.job.0, a.tile.0, a.attempt);
+            }
+            Event::Arrives { worker, job, tile, attempt } => {
+                self.arrives(worker, job, tile, attempt)
+            }
+            Event::Delivered { worker, index } => {
+                if let Some(a) = self.in_transit.remove(&index) {
+                    self.receive(worker, a);
+                }
             }
             Event::Dies { worker } => {
                 let wk = &mut self.workers[worker as usize];
                 wk.dead = true;
                 wk.queued.clear();
+                wk.turns.clear();
                 self.call(|s, out, _| s.worker_left(WorkerId(u64::from(worker)), out));
             }
             Event::Stalls { worker } => self.workers[worker as usize].stalled = true,
@@ -349,10 +472,18 @@ pub fn simulate(config: &SimConfig) -> SimReport {
             faults.push((when, Event::Stalls { worker: w }));
         }
         let queued = VecDeque::new();
-        workers.push(Worker { speed, busy_threads: 0, queued, dead: false, stalled: false });
+        workers.push(Worker {
+            speed,
+            busy_threads: 0,
+            queued,
+            turns: VecDeque::new(),
+            updated: 0,
+            version: 0,
+            dead: false,
+            stalled: false,
+        });
     }
-    let scheduler =
-        SchedulerConfig { max_in_flight: config.threads.max(1), ..SchedulerConfig::default() };
+    let scheduler = SchedulerConfig::default();
     let mut sim = Sim {
         config: config.clone(),
         geometry,
@@ -367,6 +498,8 @@ pub fn simulate(config: &SimConfig) -> SimReport {
         in_scheduler: Duration::ZERO,
         merged_at: Vec::with_capacity(total),
         handed_out: 0,
+        in_transit: std::collections::HashMap::new(),
+        next_transit: 0,
     };
     for (when, e) in faults {
         sim.at(when, e);

@@ -9,6 +9,7 @@ impl Scheduler {
     /// taking the next tile of the first job (by priority, then submission)
     /// it may work on.
     pub(super) fn fill(&mut self, out: &mut impl Outbox) {
+        self.refresh_parallel_slots();
         if self.ready.is_empty() {
             return;
         }
@@ -32,7 +33,7 @@ impl Scheduler {
             let ids: Vec<WorkerId> = self.ready.iter().copied().collect();
             for wid in ids {
                 let Some(w) = self.workers.get(&wid) else { continue };
-                if w.in_flight.len() as u32 >= w.max_in_flight {
+                if w.in_flight.len() as u32 >= self.slots(w) {
                     continue;
                 }
                 for jid in &order {
@@ -93,10 +94,7 @@ impl Scheduler {
         let max_worker = self.config.max_worker_failures;
         let ids: Vec<WorkerId> = self.ready.iter().copied().collect();
         for wid in ids {
-            while self
-                .workers
-                .get(&wid)
-                .is_some_and(|w| (w.in_flight.len() as u32) < w.max_in_flight)
+            while self.workers.get(&wid).is_some_and(|w| (w.in_flight.len() as u32) < self.slots(w))
             {
                 let mut pick = None;
                 for jid in &order {

@@ -71,6 +71,13 @@ pub struct JobSpec {
     /// `--time-limit`; journalled in a table of its own, as `shot`).
     #[serde(skip)]
     pub passes: Option<PassPlan>,
+    /// Whether its tiles render on all of a worker's threads (a stateless
+    /// sampler's, `Renderer::render_tile_parallel`), so a worker holds
+    /// few of them ([`super::SchedulerConfig::parallel_in_flight`]). Not
+    /// journalled: a job restored after a restart renders with a tile per
+    /// thread's slots, as before.
+    #[serde(skip)]
+    pub parallel_tiles: bool,
 }
 
 /// A job's place in a shot (`farm submit` of several scenes).

@@ -42,6 +42,15 @@ pub struct SchedulerConfig {
     pub max_worker_failures: u32,
     /// The most tiles one worker may hold at once, whatever it asks for.
     pub max_in_flight: u32,
+    /// While every active job's tiles render on all of a worker's threads
+    /// ([`JobSpec::parallel_tiles`]), a worker holds a quarter of its share
+    /// of the tiles left to hand out (at most what it asked for), but at
+    /// least this many: one rendering and one waiting over the round trip;
+    /// and one once fewer tiles are left than workers could hold this many
+    /// of. Holding what it asks for (4 × threads + 2) would hand a large
+    /// farm a frame's tiles up front and leave the slow workers' share to
+    /// hold up its end (see [`crate::sim`]).
+    pub parallel_in_flight: u32,
 }
 
 impl Default for SchedulerConfig {
@@ -51,6 +60,7 @@ impl Default for SchedulerConfig {
             max_tile_failures: 3,
             max_worker_failures: 3,
             max_in_flight: 256,
+            parallel_in_flight: 2,
         }
     }
 }
@@ -63,6 +73,9 @@ pub struct Scheduler {
     /// Workers with a free slot: the only ones `fill` looks at, so the cost
     /// of a result does not grow with the size of the farm.
     ready: BTreeSet<WorkerId>,
+    /// Whether every active job's tiles render on all of a worker's
+    /// threads, and if so how many a worker holds.
+    parallel_slots: Option<u32>,
     next_job: u64,
     /// The time, when a simulation drives the scheduler (`None`: the
     /// clock's).
@@ -77,6 +90,7 @@ impl Scheduler {
             jobs: BTreeMap::new(),
             workers: BTreeMap::new(),
             ready: BTreeSet::new(),
+            parallel_slots: None,
             next_job: 1,
             virtual_now: None,
         }

@@ -77,6 +77,7 @@ pub(super) fn spec(priority: i32) -> JobSpec {
         blobs: Vec::new(),
         shot: None,
         passes: None,
+        parallel_tiles: false,
     }
 }
 
@@ -416,4 +417,50 @@ async fn a_journalled_job_resumes_to_the_same_bits() {
         vec![JobId(1)]
     );
     std::fs::remove_dir_all(dir).ok();
+}
+
+/// A 200×200 film: 169 tiles.
+fn big() -> FilmGeometry {
+    let res = Point2i::new(200, 200);
+    let crop = Bounds2i::new(Point2i::new(0, 0), res);
+    FilmGeometry::new(res, crop, Vec2::splat(2.0), 1.0, f32::INFINITY, "x.exr".into(), 35.0)
+}
+
+#[test]
+fn workers_hold_few_tiles_of_a_job_whose_tiles_render_on_all_threads() {
+    let now = Instant::now();
+    let parallel = || JobSpec { geometry: big(), parallel_tiles: true, ..spec(0) };
+    // Twenty workers asking for ten: 169 tiles are a little over eight a
+    // worker, so each holds two (one rendering, one waiting).
+    let mut s = Scheduler::new(SchedulerConfig::default());
+    let mut out = Recorder::default();
+    for w in 1..=20 {
+        s.worker_joined(WorkerId(w), format!("w{w}"), 4, 10, now, &mut out);
+    }
+    let held = |s: &Scheduler, w: u64| s.workers[&WorkerId(w)].in_flight.len();
+    s.submit(parallel(), &mut out);
+    assert!((1..=20).all(|w| held(&s, w) == 2), "{:?}", (1..=20).map(|w| held(&s, w)));
+    // A job whose tiles render one per thread gives the workers their slots.
+    s.submit(spec(0), &mut out);
+    assert!((1..=20).all(|w| held(&s, w) > 2), "{:?}", (1..=20).map(|w| held(&s, w)));
+
+    // One worker asking for ten holds ten while a quarter of the tiles left
+    // is more, then fewer: the last tile goes out to it holding none.
+    let mut s = Scheduler::new(SchedulerConfig::default());
+    let mut out = Recorder::default();
+    s.worker_joined(WorkerId(1), "w".into(), 4, 10, now, &mut out);
+    let job = s.submit(parallel(), &mut out);
+    assert_eq!(held(&s, 1), 10);
+    let mut queue = out.take();
+    let mut most_at_the_end = 0;
+    while !queue.is_empty() {
+        let (w, a) = queue.remove(0);
+        s.tile_done(w, a.key(), render(&big(), a.tile), RayStats::default(), &mut out);
+        queue.extend(out.take());
+        if s.jobs[&job].pending.is_empty() {
+            most_at_the_end = most_at_the_end.max(held(&s, 1));
+        }
+    }
+    assert_eq!(s.job_state(job), Some(&JobState::Done));
+    assert_eq!(most_at_the_end, 1);
 }

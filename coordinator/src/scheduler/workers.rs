@@ -113,10 +113,52 @@ impl Scheduler {
         self.refresh_ready(worker);
     }
 
+    /// Tiles `w` may hold now: what it asked for, or fewer while every
+    /// active job's tiles render on all its threads
+    /// ([`Scheduler::refresh_parallel_slots`]).
+    pub(super) fn slots(&self, w: &Worker) -> u32 {
+        match self.parallel_slots {
+            Some(n) => w.max_in_flight.min(n),
+            None => w.max_in_flight,
+        }
+    }
+
+    /// Keeps `parallel_slots` true to the active jobs (and to the tiles
+    /// they have left to hand out), and `ready` to it.
+    pub(super) fn refresh_parallel_slots(&mut self) {
+        let active = self.jobs.values().filter(|j| j.state.is_active());
+        let mut pending = 0usize;
+        let mut parallel = true;
+        for j in active {
+            parallel &= j.spec.parallel_tiles;
+            pending += j.pending.len();
+        }
+        // A worker holds a quarter of its share of the tiles left, at
+        // least `parallel_in_flight`; near the end, one: a tile waiting
+        // behind another on a slow worker is better handed to whichever
+        // worker frees up first.
+        let held = self.config.parallel_in_flight.max(1);
+        let workers = self.workers.len().max(1);
+        let now = parallel.then(|| {
+            if pending < workers * held as usize {
+                1
+            } else {
+                u32::try_from(pending / (workers * 4)).unwrap_or(u32::MAX).max(held)
+            }
+        });
+        if now != self.parallel_slots {
+            self.parallel_slots = now;
+            let ids: Vec<WorkerId> = self.workers.keys().copied().collect();
+            for id in ids {
+                self.refresh_ready(id);
+            }
+        }
+    }
+
     /// Keeps `ready` equal to the set of workers with a free slot.
     pub(super) fn refresh_ready(&mut self, worker: WorkerId) {
         match self.workers.get(&worker) {
-            Some(w) if (w.in_flight.len() as u32) < w.max_in_flight => {
+            Some(w) if (w.in_flight.len() as u32) < self.slots(w) => {
                 self.ready.insert(worker);
             }
             _ => {

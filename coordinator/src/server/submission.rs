@@ -97,6 +97,7 @@ pub(super) async fn job_spec(
         blobs: needed,
         shot: shot_frame(r.shot.as_ref())?,
         passes,
+        parallel_tiles: layout.sampler.continues_sequence(),
     })
 }
 

@@ -531,6 +531,7 @@ mod tests {
             blobs,
             shot: None,
             passes: None,
+            parallel_tiles: false,
         }
     }
 
