@@ -9,7 +9,7 @@ impl Scheduler {
     /// taking the next tile of the first job (by priority, then submission)
     /// it may work on.
     pub(super) fn fill(&mut self, out: &mut impl Outbox) {
-        self.refresh_parallel_slots();
+        self.refresh_slots();
         if self.ready.is_empty() {
             return;
         }

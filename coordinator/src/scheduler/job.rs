@@ -72,10 +72,10 @@ pub struct JobSpec {
     #[serde(skip)]
     pub passes: Option<PassPlan>,
     /// Whether its tiles render on all of a worker's threads (a stateless
-    /// sampler's, `Renderer::render_tile_parallel`), so a worker holds
-    /// few of them ([`super::SchedulerConfig::parallel_in_flight`]). Not
-    /// journalled: a job restored after a restart renders with a tile per
-    /// thread's slots, as before.
+    /// sampler's, `Renderer::render_tile_parallel`), so a worker may hold
+    /// fewer of them ([`super::SchedulerConfig::parallel_in_flight`]). Not
+    /// journalled: a job restored after a restart is given a tile per
+    /// thread's slots.
     #[serde(skip)]
     pub parallel_tiles: bool,
 }

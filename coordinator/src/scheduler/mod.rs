@@ -42,14 +42,16 @@ pub struct SchedulerConfig {
     pub max_worker_failures: u32,
     /// The most tiles one worker may hold at once, whatever it asks for.
     pub max_in_flight: u32,
-    /// While every active job's tiles render on all of a worker's threads
-    /// ([`JobSpec::parallel_tiles`]), a worker holds a quarter of its share
-    /// of the tiles left to hand out (at most what it asked for), but at
-    /// least this many: one rendering and one waiting over the round trip;
-    /// and one once fewer tiles are left than workers could hold this many
-    /// of. Holding what it asks for (4 × threads + 2) would hand a large
-    /// farm a frame's tiles up front and leave the slow workers' share to
-    /// hold up its end (see [`crate::sim`]).
+    /// A worker holds at most what it asked for and at most a quarter of
+    /// its share of the tiles left to hand out, but no fewer than its
+    /// threads + 2 (a tile per thread and two waiting over the round
+    /// trip), or, while every active job's tiles render on all of a
+    /// worker's threads ([`JobSpec::parallel_tiles`]), no fewer than this
+    /// many: one rendering and one waiting; and then one once fewer tiles
+    /// are left than workers could hold this many of. Holding what it asks
+    /// for (4 × threads + 2) would hand a large farm a frame's tiles up
+    /// front and leave the slow workers' share to hold up its end (see
+    /// [`crate::sim`]).
     pub parallel_in_flight: u32,
 }
 
@@ -73,9 +75,8 @@ pub struct Scheduler {
     /// Workers with a free slot: the only ones `fill` looks at, so the cost
     /// of a result does not grow with the size of the farm.
     ready: BTreeSet<WorkerId>,
-    /// Whether every active job's tiles render on all of a worker's
-    /// threads, and if so how many a worker holds.
-    parallel_slots: Option<u32>,
+    /// What bounds the tiles a worker holds now (`Scheduler::slots`).
+    slot_rule: workers::SlotRule,
     next_job: u64,
     /// The time, when a simulation drives the scheduler (`None`: the
     /// clock's).
@@ -90,7 +91,7 @@ impl Scheduler {
             jobs: BTreeMap::new(),
             workers: BTreeMap::new(),
             ready: BTreeSet::new(),
-            parallel_slots: None,
+            slot_rule: workers::SlotRule::default(),
             next_job: 1,
             virtual_now: None,
         }

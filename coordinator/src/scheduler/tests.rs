@@ -281,7 +281,9 @@ fn a_worker_cannot_hoard_a_job_by_asking_for_every_tile() {
     let config = SchedulerConfig { max_in_flight: 8, ..Default::default() };
     let mut s = Scheduler::new(config);
     let mut out = Recorder::default();
-    s.worker_joined(WorkerId(1), "greedy".into(), 1, u32::MAX, Instant::now(), &mut out);
+    // Sixteen threads: its tile per thread and two waiting are more than
+    // the cap.
+    s.worker_joined(WorkerId(1), "greedy".into(), 16, u32::MAX, Instant::now(), &mut out);
     s.worker_joined(WorkerId(2), "modest".into(), 1, 2, Instant::now(), &mut out);
     let _ = s.submit(spec(0), &mut out);
     let out_tiles = out.take();
@@ -440,9 +442,10 @@ fn workers_hold_few_tiles_of_a_job_whose_tiles_render_on_all_threads() {
     let held = |s: &Scheduler, w: u64| s.workers[&WorkerId(w)].in_flight.len();
     s.submit(parallel(), &mut out);
     assert!((1..=20).all(|w| held(&s, w) == 2), "{:?}", (1..=20).map(|w| held(&s, w)));
-    // A job whose tiles render one per thread gives the workers their slots.
+    // A job whose tiles render one per thread gives each a tile for each of
+    // its threads and two waiting.
     s.submit(spec(0), &mut out);
-    assert!((1..=20).all(|w| held(&s, w) > 2), "{:?}", (1..=20).map(|w| held(&s, w)));
+    assert!((1..=20).all(|w| held(&s, w) == 6), "{:?}", (1..=20).map(|w| held(&s, w)));
 
     // One worker asking for ten holds ten while a quarter of the tiles left
     // is more, then fewer: the last tile goes out to it holding none.

@@ -6,6 +6,17 @@ use std::collections::HashSet;
 use std::time::Instant;
 use tracing::{info, warn};
 
+/// What bounds the tiles a worker holds ([`Scheduler::slots`]).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub(super) struct SlotRule {
+    /// Every active job's tiles render on all of a worker's threads.
+    pub(super) parallel: bool,
+    /// A quarter of a worker's share of the tiles left to hand out.
+    pub(super) share: u32,
+    /// Fewer tiles are left than workers could hold two of.
+    pub(super) ending: bool,
+}
+
 pub(super) struct Worker {
     pub(super) name: String,
     pub(super) threads: u32,
@@ -113,41 +124,46 @@ impl Scheduler {
         self.refresh_ready(worker);
     }
 
-    /// Tiles `w` may hold now: what it asked for, or fewer while every
-    /// active job's tiles render on all its threads
-    /// ([`Scheduler::refresh_parallel_slots`]).
+    /// Tiles `w` may hold now: what it asked for, or fewer once that would
+    /// be more than a quarter of its share of the tiles left
+    /// ([`Scheduler::refresh_slots`]).
     pub(super) fn slots(&self, w: &Worker) -> u32 {
-        match self.parallel_slots {
-            Some(n) => w.max_in_flight.min(n),
-            None => w.max_in_flight,
-        }
+        let rule = self.slot_rule;
+        let cap = if rule.parallel {
+            // Each tile on all its threads: one rendering, one waiting over
+            // the round trip; near the end, one, so a tile waiting behind
+            // another on a slow worker goes instead to whichever worker
+            // frees up first.
+            if rule.ending {
+                1
+            } else {
+                rule.share.max(self.config.parallel_in_flight.max(1))
+            }
+        } else {
+            // A tile per thread: one for each thread and two waiting.
+            rule.share.max(w.threads.saturating_add(2))
+        };
+        w.max_in_flight.min(cap)
     }
 
-    /// Keeps `parallel_slots` true to the active jobs (and to the tiles
-    /// they have left to hand out), and `ready` to it.
-    pub(super) fn refresh_parallel_slots(&mut self) {
-        let active = self.jobs.values().filter(|j| j.state.is_active());
+    /// Keeps the slot rule true to the active jobs and the tiles they have
+    /// left to hand out, and `ready` to it.
+    pub(super) fn refresh_slots(&mut self) {
         let mut pending = 0usize;
         let mut parallel = true;
-        for j in active {
+        for j in self.jobs.values().filter(|j| j.state.is_active()) {
             parallel &= j.spec.parallel_tiles;
             pending += j.pending.len();
         }
-        // A worker holds a quarter of its share of the tiles left, at
-        // least `parallel_in_flight`; near the end, one: a tile waiting
-        // behind another on a slow worker is better handed to whichever
-        // worker frees up first.
-        let held = self.config.parallel_in_flight.max(1);
         let workers = self.workers.len().max(1);
-        let now = parallel.then(|| {
-            if pending < workers * held as usize {
-                1
-            } else {
-                u32::try_from(pending / (workers * 4)).unwrap_or(u32::MAX).max(held)
-            }
-        });
-        if now != self.parallel_slots {
-            self.parallel_slots = now;
+        let held = self.config.parallel_in_flight.max(1) as usize;
+        let rule = SlotRule {
+            parallel,
+            share: u32::try_from(pending / (workers * 4)).unwrap_or(u32::MAX),
+            ending: pending < workers * held,
+        };
+        if rule != self.slot_rule {
+            self.slot_rule = rule;
             let ids: Vec<WorkerId> = self.workers.keys().copied().collect();
             for id in ids {
                 self.refresh_ready(id);
