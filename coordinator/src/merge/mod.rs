@@ -60,6 +60,11 @@ pub struct Film {
     pass_started: bool,
     /// How the halves of the pass under way relate.
     halves: HalfImages,
+    /// The finished estimate (without its map, which `running` holds) and
+    /// the samples per pixel it was made for, until the next tile comes
+    /// in: a render in passes asks for it after its last pass and again
+    /// when it finishes.
+    finished: Option<(u32, ErrorEstimate)>,
 }
 
 /// The error estimate of the merged tiles, brought up to date a tile at a
@@ -94,6 +99,7 @@ impl Film {
             finals,
             pass_started: true,
             halves: geometry_halves,
+            finished: None,
         }
     }
 
@@ -198,6 +204,7 @@ impl Film {
     /// Takes a tile [`Film::check`] found new, and merges every tile whose
     /// turn has come.
     pub fn insert(&mut self, id: TileId, tile: FilmTile) {
+        self.finished = None;
         self.start_pass();
         let g = &self.geometry;
         let crop = g.cropped_pixel_bounds;
@@ -230,6 +237,12 @@ impl Film {
     /// `spp` is the samples per pixel merged: it sets how far apart a
     /// firefly's halves must be ([`crate::estimate::fireflies::apart`]).
     pub fn error_estimate(&mut self, spp: u32) -> Option<ErrorEstimate> {
+        if let Some((s, e)) = &self.finished {
+            if *s == spp {
+                let per_pixel = self.running.map.clone();
+                return Some(ErrorEstimate { per_pixel, ..e.clone() });
+            }
+        }
         let b = self.geometry.cropped_pixel_bounds;
         let size = (b.width().max(0) as usize, b.height().max(0) as usize);
         let (scale, halves) = (self.geometry.scale, self.halves);
@@ -240,6 +253,9 @@ impl Film {
         estimate.fireflies = find_fireflies(size, pixel, scale, halves, suspects, &errors);
         let (sum, counted) = sum_counted(&errors);
         self.running = Running { map: estimate.per_pixel.clone(), sum, counted, upto: self.next };
+        // Its map is the running one's until the next tile.
+        let kept = ErrorEstimate { per_pixel: Vec::new(), ..estimate.clone() };
+        self.finished = Some((spp, kept));
         Some(estimate)
     }
 

@@ -263,6 +263,21 @@ fn a_finished_pass_keeps_its_estimate_until_the_next_pass_begins() {
     }
     let finished = f.error_estimate(4).unwrap();
     assert!(finished.fireflies.is_some(), "{finished:?}");
+    assert_eq!(f.error_estimate(4).unwrap(), finished, "asked again");
     f.next_pass();
     assert_eq!(f.error_estimate(4).unwrap(), finished, "read between the passes");
+    // The next pass's tiles make a new estimate, not the one kept.
+    for id in 0..g.tile_count() {
+        let mut t = FilmTile::new(g.tile_pixel_bounds(TileId(id)));
+        for p in t.pixel_bounds.iter() {
+            for i in 0..4 {
+                let v = 0.1 + 0.01 * i as f32;
+                t.add(p, Spectrum::new(v, v, v), 1.0, i >= 2);
+            }
+        }
+        f.accept(TileId(id), t).unwrap();
+    }
+    let next = f.error_estimate(4).unwrap();
+    assert_ne!(next.rel_mse, finished.rel_mse);
+    assert_eq!(f.error_estimate(4).unwrap(), next);
 }
