@@ -108,6 +108,8 @@ fn resample_weights(old_res: usize, new_res: usize) -> Vec<(i64, [f32; 4])> {
 fn wrap_index(i: i64, n: usize, wrap: WrapMode) -> Option<usize> {
     let n = n as i64;
     let i = match wrap {
+        // The pyramid's sides are powers of two: a mask, not a division.
+        WrapMode::Repeat if n & (n - 1) == 0 => i & (n - 1),
         WrapMode::Repeat => i.rem_euclid(n),
         WrapMode::Clamp => i.clamp(0, n - 1),
         WrapMode::Black => i,
@@ -308,13 +310,19 @@ impl<T: Texel> MipMap<T> {
         let mut sum_wts = 0.0f32;
         for it in t0..=t1 {
             let tt = it as f32 - st.y;
+            // The row's wrapped index, once a row (`texel`'s, inlined).
+            let row = wrap_index(it, l.h, self.wrap);
             for is in s0..=s1 {
                 let ss = is as f32 - st.x;
                 let r2 = a * ss * ss + b * ss * tt + c * tt * tt;
                 if r2 < 1.0 {
                     let index = ((r2 * WEIGHT_LUT_SIZE as f32) as usize).min(WEIGHT_LUT_SIZE - 1);
                     let weight = self.weight_lut[index];
-                    sum = sum + self.texel(level, is, it) * weight;
+                    let texel = match (row, wrap_index(is, l.w, self.wrap)) {
+                        (Some(t), Some(s)) => l.texels[t * l.w + s],
+                        _ => T::default(),
+                    };
+                    sum = sum + texel * weight;
                     sum_wts += weight;
                 }
             }
@@ -327,6 +335,16 @@ impl<T: Texel> MipMap<T> {
 mod tests {
     use super::*;
     use farm_common::rng::Rng;
+
+    #[test]
+    fn repeat_wraps_with_a_mask_as_with_a_division() {
+        for n in [1usize, 2, 8, 64, 3, 12] {
+            for i in -300i64..300 {
+                let want = Some(i.rem_euclid(n as i64) as usize);
+                assert_eq!(wrap_index(i, n, WrapMode::Repeat), want, "{i} mod {n}");
+            }
+        }
+    }
 
     #[test]
     fn constant_image_gives_constant_lookups() {
