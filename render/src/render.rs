@@ -21,6 +21,11 @@ use farm_common::Spectrum;
 /// Entries per axis of the precomputed filter table (pbrt-v3's 16).
 const FILTER_TABLE_SIZE: usize = 16;
 
+/// The most samples [`Renderer::render_tile_parallel`] holds traced before
+/// it splats them (28 bytes each): a 16×16 tile at 256 spp at once, a few
+/// pixels at a time at thousands.
+const PARALLEL_SAMPLES: usize = 65_536;
+
 /// One traced sample, kept until it is splatted in its turn.
 #[derive(Clone, Copy, Debug, Default)]
 struct Traced {
@@ -251,10 +256,8 @@ impl Renderer {
         id: TileId,
         range: Option<SampleRange>,
     ) -> (FilmTile, RayStats) {
-        use rayon::prelude::*;
         let seed = self.film.tile_seed(id);
         let base = self.sampler.clone_with_seed(seed);
-        let halves = base.halves();
         let diff_scale = self.diff_scale();
         let (first, end) = range.map_or((0, u32::MAX), |r| (r.first, r.end));
         let pixels: Vec<Point2i> = self
@@ -265,9 +268,51 @@ impl Renderer {
             .collect();
         let mut tile = FilmTile::new(self.film.tile_pixel_bounds(id));
         let n = end.min(base.samples_per_pixel()).saturating_sub(first).max(1) as usize;
-        let mut traced = vec![Traced::default(); pixels.len() * n];
-        let mut counts = vec![0usize; pixels.len()];
-        let stats = traced
+        // Traced and splatted a run of pixels at a time, so the samples
+        // held stay within `PARALLEL_SAMPLES` whatever the count per pixel.
+        let run = (PARALLEL_SAMPLES / n).clamp(1, pixels.len().max(1));
+        let mut traced = vec![Traced::default(); run * n];
+        let mut counts = vec![0usize; run];
+        let mut stats = RayStats::default();
+        for pixels in pixels.chunks(run) {
+            let used = pixels.len();
+            counts[..used].fill(0);
+            let s = self.trace_run(
+                &base,
+                pixels,
+                &mut traced[..used * n],
+                &mut counts[..used],
+                n,
+                range,
+                diff_scale,
+            );
+            stats.add(&s);
+            for (samples, &count) in traced.chunks(n).zip(&counts[..used]) {
+                for t in &samples[..count] {
+                    self.add_sample(&mut tile, t.p_film, t.l, t.weight, t.second_half);
+                }
+            }
+        }
+        (tile, stats)
+    }
+
+    /// Traces every pixel of `pixels` on the pool's threads: `n` slots of
+    /// `traced` a pixel, and how many it filled in `counts`.
+    #[allow(clippy::too_many_arguments)]
+    fn trace_run(
+        &self,
+        base: &Sampler,
+        pixels: &[Point2i],
+        traced: &mut [Traced],
+        counts: &mut [usize],
+        n: usize,
+        range: Option<SampleRange>,
+        diff_scale: f32,
+    ) -> RayStats {
+        use rayon::prelude::*;
+        let halves = base.halves();
+        let (first, end) = range.map_or((0, u32::MAX), |r| (r.first, r.end));
+        traced
             .par_chunks_mut(n)
             .zip(counts.par_iter_mut())
             .zip(pixels.par_iter())
@@ -295,13 +340,7 @@ impl Renderer {
             .reduce(RayStats::default, |mut a, b| {
                 a.add(&b);
                 a
-            });
-        for (samples, &count) in traced.chunks(n).zip(&counts) {
-            for t in &samples[..count] {
-                self.add_sample(&mut tile, t.p_film, t.l, t.weight, t.second_half);
-            }
-        }
-        (tile, stats)
+            })
     }
 
     /// Ray differentials are scaled for the job's samples per pixel (a

@@ -3,7 +3,8 @@
 //! with the bits of the same tile rendered on one thread: whole, or one
 //! pass's samples, under a wide filter whose splats cross pixels, a crop
 //! window and textures filtered with ray differentials. A sampler with
-//! state renders its tiles on one thread, as before.
+//! state renders its tiles on one thread, as before. At many samples a
+//! pixel the traced samples are held a run of pixels at a time.
 
 use farm_common::film::SampleRange;
 use farm_common::ids::TileId;
@@ -26,6 +27,10 @@ const SCENE: &str = "LookAt 0 1.5 -4  0 0 0  0 1 0\nCamera \"perspective\" \"flo
     \"point P\" [-5 -1 -5  5 -1 -5  5 -1 5  -5 -1 5] \"float uv\" [0 0 1 0 1 1 0 1]\nWorldEnd\n";
 
 fn renderer(sampler: &str) -> Renderer {
+    renderer_with(sampler, &RenderOptions::default())
+}
+
+fn renderer_with(sampler: &str, opts: &RenderOptions) -> Renderer {
     let dir = std::env::temp_dir().join(format!("farm-tile-threads-{}", std::process::id()));
     std::fs::create_dir_all(&dir).expect("temp dir");
     let path = dir.join(format!("{sampler}.pbrt"));
@@ -33,7 +38,7 @@ fn renderer(sampler: &str) -> Renderer {
     let parsed = farm_scene::parse_file(&path);
     let _ = std::fs::remove_dir_all(&dir);
     let (desc, _) = parsed.expect("parses");
-    Renderer::new(desc, &RenderOptions::default()).expect("builds").0
+    Renderer::new(desc, opts).expect("builds").0
 }
 
 fn bits(t: &farm_common::film::FilmTile) -> Vec<u32> {
@@ -63,5 +68,22 @@ fn a_stateless_samplers_tile_renders_on_every_thread_with_one_threads_bits() {
             }
         }
         assert!(lit > 6, "{sampler}: only {lit} tiles have light");
+    }
+}
+
+#[test]
+fn at_many_samples_a_tile_is_traced_a_run_of_pixels_at_a_time_with_the_same_bits() {
+    // 1024 samples a pixel: a tile's 256 pixels are traced and splatted in
+    // runs of 64, so what is held stays bounded; the bits do not change.
+    let pool = rayon::ThreadPoolBuilder::new().num_threads(4).build().expect("pool");
+    let r = renderer_with("halton", &RenderOptions { spp: Some(1024), ..Default::default() });
+    let middle = r.film.tile_count() / 2;
+    for tile in [0, middle] {
+        let id = TileId(tile);
+        let (one, one_stats) = r.render_tile(id);
+        let (many, many_stats) = pool.install(|| r.render_tile_parallel(id, None));
+        assert_eq!(bits(&one), bits(&many), "tile {tile}");
+        assert_eq!(one_stats, many_stats, "tile {tile}");
+        assert!(one_stats.camera_rays >= 1024 * 64, "tile {tile}: {one_stats:?}");
     }
 }
