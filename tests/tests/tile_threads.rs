@@ -31,7 +31,10 @@ fn renderer(sampler: &str) -> Renderer {
 }
 
 fn renderer_with(sampler: &str, opts: &RenderOptions) -> Renderer {
-    let dir = std::env::temp_dir().join(format!("farm-tile-threads-{}", std::process::id()));
+    // A folder per call: the tests run at once and each removes its own.
+    static CALLS: std::sync::atomic::AtomicUsize = std::sync::atomic::AtomicUsize::new(0);
+    let call = CALLS.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+    let dir = std::env::temp_dir().join(format!("farm-tile-threads-{}-{call}", std::process::id()));
     std::fs::create_dir_all(&dir).expect("temp dir");
     let path = dir.join(format!("{sampler}.pbrt"));
     std::fs::write(&path, SCENE.replace("SAMPLER", sampler)).expect("write");
