@@ -25,6 +25,10 @@ pub struct BenchArgs {
     /// Renders per measurement; the fastest is reported.
     #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u32).range(1..))]
     pub runs: u32,
+    /// A pbrt-v3 binary: render each scene with it too, in turn with farm,
+    /// and compare against those numbers instead of the reference table's.
+    #[arg(long, value_name = "PATH", env = "FARM_PBRT")]
+    pub pbrt: Option<PathBuf>,
 }
 
 /// Arguments of `farm bench-one`.
@@ -55,6 +59,13 @@ pub fn run(args: &BenchArgs) -> ExitCode {
             return ExitCode::FAILURE;
         }
     };
+    match &args.pbrt {
+        Some(p) => say!("pbrt-v3: {}, run in turn with farm on this machine", p.display()),
+        None => say!(
+            "pbrt-v3: the reference README's numbers, from another machine and day \
+             (--pbrt PATH runs it side by side)"
+        ),
+    }
     say!(
         "{:<30} {:>4} {:>7} {:>7} {:>7} {:>7} {:>6} {:>8} {:>8} {:>6} {:>6} {:>8}",
         "scene",
@@ -75,9 +86,10 @@ pub fn run(args: &BenchArgs) -> ExitCode {
         threads: args.threads,
         scaling: args.scaling,
         runs: args.runs as usize,
+        pbrt: args.pbrt.clone(),
     };
     let rows = bench::run(&exe, &args.shared, &opts, |r| {
-        let p = r.scene.pbrt.clone().unwrap_or_default();
+        let p = r.pbrt().unwrap_or_default();
         let speedup = r.speedup().map(|v| format!("{v:.2}")).unwrap_or_else(|| "-".into());
         match &r.measured {
             Ok(m) => say!(
@@ -88,13 +100,16 @@ pub fn run(args: &BenchArgs) -> ExitCode {
                 p.wall,
                 m.cpu,
                 p.cpu,
-                if p.cpu > 0.0 { m.cpu / p.cpu } else { f64::NAN },
+                r.cpu_ratio().unwrap_or(f64::NAN),
                 m.startup,
                 m.rays_per_second / 1e6,
                 m.peak_rss_mb,
                 p.rss_mb
             ),
             Err(e) => say!("{:<30} {e}", r.scene.scene),
+        }
+        if let Some(Err(e)) = &r.pbrt_here {
+            say!("{:<30} {e}", "");
         }
     });
     if let Some(g) = bench::cpu_ratio_geomean(&rows) {
@@ -105,7 +120,7 @@ pub fn run(args: &BenchArgs) -> ExitCode {
         return ExitCode::FAILURE;
     }
     say!("wrote {}", args.csv.display());
-    if rows.iter().any(|r| r.measured.is_err()) {
+    if rows.iter().any(|r| r.measured.is_err() || matches!(r.pbrt_here, Some(Err(_)))) {
         return ExitCode::FAILURE;
     }
     ExitCode::SUCCESS

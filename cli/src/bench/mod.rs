@@ -1,7 +1,9 @@
 //! `farm bench`: renders every shared pbrt-v3 scene it finds, each in a
 //! fresh process so its peak memory is its own, and tabulates wall and CPU
-//! seconds, start-up, rays per second and peak RSS next to pbrt-v3's
-//! numbers from the reference README.
+//! seconds, start-up, rays per second and peak RSS next to pbrt-v3's. With
+//! `--pbrt PATH` pbrt-v3 renders each scene in the same run, turn about
+//! with farm, so both see the same machine; without it the numbers are the
+//! reference README's, measured on another machine another day.
 
 use crate::embedded::{self, SubmitOptions};
 use crate::error::Error;
@@ -10,6 +12,9 @@ use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 use std::process::Command;
 use std::time::Instant;
+
+mod pbrt;
+pub use pbrt::measure_pbrt;
 
 /// pbrt-v3's own measurements of a scene (reference README).
 #[derive(Clone, Debug, Default, PartialEq)]
@@ -182,9 +187,26 @@ pub struct BenchRow {
     pub measured: Result<Measured, String>,
     /// The same render on one thread, when thread scaling was asked for.
     pub one_thread: Option<Result<Measured, String>>,
+    /// pbrt-v3 measured in this run, when a pbrt-v3 binary was given.
+    pub pbrt_here: Option<Result<PbrtRun, String>>,
 }
 
 impl BenchRow {
+    /// pbrt-v3's numbers: this run's when it ran here, else the table's.
+    pub fn pbrt(&self) -> Option<PbrtRun> {
+        match &self.pbrt_here {
+            Some(Ok(p)) => Some(p.clone()),
+            Some(Err(_)) => None,
+            None => self.scene.pbrt.clone(),
+        }
+    }
+
+    /// Our CPU seconds over pbrt-v3's, when both are known.
+    pub fn cpu_ratio(&self) -> Option<f64> {
+        let (m, p) = (self.measured.as_ref().ok()?, self.pbrt()?);
+        (p.cpu > 0.0 && m.cpu > 0.0).then(|| m.cpu / p.cpu)
+    }
+
     /// Wall-time speed-up of the measured render over the one-thread one.
     pub fn speedup(&self) -> Option<f64> {
         match (&self.measured, &self.one_thread) {
@@ -194,29 +216,48 @@ impl BenchRow {
     }
 }
 
+/// What [`best_of`] measured of one scene: farm with each thread count
+/// asked for, and pbrt-v3 when it was given.
+struct Best {
+    farm: Vec<Result<Measured, String>>,
+    pbrt: Option<Result<PbrtRun, String>>,
+}
+
+/// Keeps the faster of two results; a failure stands.
+fn faster<T>(
+    best: Option<Result<T, String>>,
+    new: Result<T, String>,
+    wall: impl Fn(&T) -> f64,
+) -> Result<T, String> {
+    match (best, new) {
+        (Some(Err(e)), _) => Err(e),
+        (Some(Ok(old)), Ok(new)) if wall(&old) <= wall(&new) => Ok(old),
+        (_, new) => new,
+    }
+}
+
 /// The fastest of `runs` renders of `scene` with each thread count in
-/// `threads`, each in a child process. The counts take turns run by run, so
+/// `threads`, each in a child process, and of `runs` pbrt-v3 renders with
+/// the first count when `pbrt` is given. They take turns run by run, so
 /// that a load the shared machine picks up or drops midway weighs on all of
-/// them alike (a speed-up compares two of them).
-fn best_of(
-    exe: &Path,
-    scene: &Path,
-    threads: &[usize],
-    runs: usize,
-) -> Vec<Result<Measured, String>> {
+/// them alike (a speed-up or a ratio compares two of them).
+fn best_of(exe: &Path, pbrt: Option<&Path>, scene: &Path, threads: &[usize], runs: usize) -> Best {
     let mut best: Vec<Option<Result<Measured, String>>> = vec![None; threads.len()];
+    let mut best_pbrt = None;
     for _ in 0..runs.max(1) {
         for (b, &t) in best.iter_mut().zip(threads) {
             let m = measure_child(exe, scene, t);
-            *b = match (b.take(), m) {
-                // A failure stands; otherwise the fastest run does.
-                (Some(Err(e)), _) => Some(Err(e)),
-                (Some(Ok(old)), Ok(m)) if old.wall <= m.wall => Some(Ok(old)),
-                (_, m) => Some(m),
-            };
+            *b = Some(faster(b.take(), m, |m| m.wall));
+        }
+        if let Some(pbrt) = pbrt {
+            let p = measure_pbrt(pbrt, scene, threads.first().copied().unwrap_or(0));
+            best_pbrt = Some(faster(best_pbrt.take(), p, |p| p.wall));
         }
     }
-    best.into_iter().map(|b| b.unwrap_or_else(|| Err("no run".into()))).collect()
+    Best {
+        farm: best.into_iter().map(|b| b.unwrap_or_else(|| Err("no run".into()))).collect(),
+        pbrt: best_pbrt,
+    }
 }
 
 /// Renders `scene` in a child process (`exe bench-one SCENE`).
@@ -246,6 +287,8 @@ pub struct BenchOptions {
     pub scaling: bool,
     /// Renders per measurement; the fastest is kept (the machine may be shared).
     pub runs: usize,
+    /// A pbrt-v3 binary to render each scene with in the same run.
+    pub pbrt: Option<PathBuf>,
 }
 
 /// Renders each scene in child processes and collects the measurements.
@@ -262,10 +305,11 @@ pub fn run(
         }
         let path: PathBuf = shared.join("scenes").join(&s.scene).join(&s.file);
         let counts: &[usize] = if opts.scaling { &[opts.threads, 1] } else { &[opts.threads] };
-        let mut results = best_of(exe, &path, counts, opts.runs).into_iter();
+        let best = best_of(exe, opts.pbrt.as_deref(), &path, counts, opts.runs);
+        let mut results = best.farm.into_iter();
         let measured = results.next().unwrap_or_else(|| Err("no run".into()));
         let one_thread = results.next();
-        let row = BenchRow { scene: s, measured, one_thread };
+        let row = BenchRow { scene: s, measured, one_thread, pbrt_here: best.pbrt };
         each(&row);
         rows.push(row);
     }
@@ -279,8 +323,8 @@ pub fn csv(rows: &[BenchRow]) -> String {
     );
     for r in rows {
         let Ok(m) = &r.measured else { continue };
-        let p = r.scene.pbrt.clone().unwrap_or_default();
-        let ratio = if p.cpu > 0.0 { format!("{:.3}", m.cpu / p.cpu) } else { String::new() };
+        let p = r.pbrt().unwrap_or_default();
+        let ratio = r.cpu_ratio().map(|v| format!("{v:.3}")).unwrap_or_default();
         let one = match &r.one_thread {
             Some(Ok(one)) => format!("{:.3}", one.wall),
             _ => String::new(),
@@ -306,16 +350,9 @@ pub fn csv(rows: &[BenchRow]) -> String {
 }
 
 /// Geometric mean of our CPU seconds over pbrt-v3's, over the rows that
-/// have both.
+/// have both (pbrt-v3's from this run where it ran).
 pub fn cpu_ratio_geomean(rows: &[BenchRow]) -> Option<f64> {
-    let logs: Vec<f64> = rows
-        .iter()
-        .filter_map(|r| {
-            let m = r.measured.as_ref().ok()?;
-            let p = r.scene.pbrt.as_ref()?;
-            (p.cpu > 0.0 && m.cpu > 0.0).then(|| math::ln(m.cpu / p.cpu))
-        })
-        .collect();
+    let logs: Vec<f64> = rows.iter().filter_map(|r| r.cpu_ratio().map(math::ln)).collect();
     (!logs.is_empty()).then(|| math::exp(logs.iter().sum::<f64>() / logs.len() as f64))
 }
 
@@ -365,16 +402,35 @@ mod tests {
             pbrt: Some(PbrtRun { cpu, ..Default::default() }),
         };
         let rows = [
-            BenchRow { scene: scene(1.0), measured: Ok(m.clone()), one_thread: None },
+            BenchRow {
+                scene: scene(1.0),
+                measured: Ok(m.clone()),
+                one_thread: None,
+                pbrt_here: None,
+            },
             BenchRow {
                 scene: scene(4.0),
                 measured: Ok(m.clone()),
                 one_thread: Some(Ok(Measured { wall: 2.85, ..m.clone() })),
+                pbrt_here: None,
             },
-            BenchRow { scene: scene(8.0), measured: Err("failed".into()), one_thread: None },
+            BenchRow {
+                scene: scene(8.0),
+                measured: Err("failed".into()),
+                one_thread: None,
+                pbrt_here: None,
+            },
         ];
         // 2/1 and 2/4: geometric mean 1; the failed row does not count.
         assert!((cpu_ratio_geomean(&rows).unwrap() - 1.0).abs() < 1e-12);
+        // pbrt-v3 measured in this run replaces the table's numbers, and a
+        // failed pbrt-v3 run leaves the row without a ratio.
+        let mut here = rows.clone();
+        here[0].pbrt_here = Some(Ok(PbrtRun { cpu: 0.5, ..Default::default() }));
+        here[1].pbrt_here = Some(Err("pbrt-v3 failed".into()));
+        assert_eq!(here[0].cpu_ratio(), Some(4.0));
+        assert_eq!(here[1].cpu_ratio(), None);
+        assert!((cpu_ratio_geomean(&here).unwrap() - 4.0).abs() < 1e-12);
         assert_eq!(csv(&rows).lines().count(), 3);
         assert!((rows[1].speedup().unwrap() - 1.9).abs() < 1e-12);
         assert!(csv(&rows).lines().nth(2).unwrap().ends_with(",2.850,1.900"));
