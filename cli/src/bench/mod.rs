@@ -379,6 +379,7 @@ mod tests {
         assert_eq!((p.wall, p.cpu, p.rss_mb), (2.3, 4.4, 28.0));
         assert_eq!((p.camera_rays, p.shadow_rays), (4.0e6, 9.0e5));
         assert_eq!(rows[0].ground_truth, "gt256");
+        std::fs::remove_dir_all(dir).unwrap();
     }
 
     #[test]

@@ -12,7 +12,8 @@
 
 use super::lowdiscrepancy::{
     compute_radical_inverse_permutations, inverse_radical_inverse, radical_inverse,
-    radical_inverse_permutations_prefix, scrambled_radical_inverse, DigitPairs, PAIR_DIMS,
+    radical_inverse_permutations_prefix, scrambled_radical_inverse, scrambled_radical_inverse_fast,
+    DigitPairs, PAIR_DIMS,
     PRIME_SUMS, PRIME_TABLE_SIZE,
 };
 use super::pixel::{GlobalSampler, GlobalSequence};
@@ -158,7 +159,8 @@ impl GlobalSequence for Halton {
                 // (never reached with Whitted's handful of dimensions).
                 let dim =
                     if dim < PRIME_TABLE_SIZE { dim } else { 2 + dim % (PRIME_TABLE_SIZE - 2) };
-                scrambled_radical_inverse(dim, index as u64, self.permutation_for_dimension(dim))
+                let perm = self.permutation_for_dimension(dim);
+                scrambled_radical_inverse_fast(dim, index as u64, perm)
             }
         }
     }

@@ -56,10 +56,17 @@ const fn prime_sums() -> [u32; PRIME_TABLE_SIZE] {
 /// `RadicalInverse`). Base 2 is computed by bit reversal in double
 /// precision, exactly as pbrt-v3 does (and, like it, is not clamped).
 pub fn radical_inverse(base_index: usize, a: u64) -> f32 {
-    if base_index == 0 {
-        return (a.reverse_bits() as f64 * f64::from_bits(0x3bf0_0000_0000_0000)) as f32;
+    match base_index {
+        0 => (a.reverse_bits() as f64 * f64::from_bits(0x3bf0_0000_0000_0000)) as f32,
+        // Halton's second dimension: a constant base divides by multiplying.
+        1 => radical_inverse_in::<3>(a),
+        _ => radical_inverse_base(PRIMES[base_index.min(RADICAL_INVERSE_BASES - 1)] as u64, a),
     }
-    let base = PRIMES[base_index.min(RADICAL_INVERSE_BASES - 1)] as u64;
+}
+
+/// [`radical_inverse`] in base `base` (not 2).
+#[inline(always)]
+fn radical_inverse_base(base: u64, a: u64) -> f32 {
     let inv_base = 1.0f32 / base as f32;
     let (mut a, mut reversed, mut inv_base_n) = (a, 0u64, 1.0f32);
     while a != 0 {
@@ -72,10 +79,25 @@ pub fn radical_inverse(base_index: usize, a: u64) -> f32 {
     (reversed as f32 * inv_base_n).min(ONE_MINUS_EPSILON)
 }
 
+/// [`radical_inverse_base`] with the base a constant, as pbrt-v3's switch
+/// over bases has it: the compiler divides by multiplying, and the
+/// floating-point operations are the same, so are the bits.
+#[inline(always)]
+fn radical_inverse_in<const B: u64>(a: u64) -> f32 {
+    radical_inverse_base(B, a)
+}
+
 /// The radical inverse of `a` with each digit mapped through `perm`
 /// (pbrt-v3 `ScrambledRadicalInverse`); `perm` has `PRIMES[base_index]` entries.
 pub fn scrambled_radical_inverse(base_index: usize, a: u64, perm: &[u16]) -> f32 {
     let base = PRIMES[base_index.min(RADICAL_INVERSE_BASES - 1)] as u64;
+    scrambled_in_base(base, a, perm)
+}
+
+/// [`scrambled_radical_inverse`] in base `base`.
+#[inline(always)]
+fn scrambled_in_base(base: u64, a: u64, perm: &[u16]) -> f32 {
+    let perm = &perm[..base as usize];
     let inv_base = 1.0f32 / base as f32;
     let (mut a, mut reversed, mut inv_base_n) = (a, 0u64, 1.0f32);
     while a != 0 {
@@ -87,6 +109,43 @@ pub fn scrambled_radical_inverse(base_index: usize, a: u64, perm: &[u16]) -> f32
     }
     let tail = inv_base * perm[0] as f32 / (1.0 - inv_base);
     (inv_base_n * (reversed as f32 + tail)).min(ONE_MINUS_EPSILON)
+}
+
+/// [`scrambled_in_base`] with the base a constant.
+#[inline(always)]
+fn scrambled_in<const B: u64>(a: u64, perm: &[u16]) -> f32 {
+    scrambled_in_base(B, a, perm)
+}
+
+/// Dimensions below this have their base written out as a constant in
+/// [`scrambled_radical_inverse_fast`]: Whitted's Halton and Sobol'-free
+/// renders with up to about thirty lights stay within them.
+pub const CONST_BASE_DIMS: usize = 64;
+
+/// Calls `$f::<BASE>($args)` for dimension `$dim`'s prime base, written out
+/// for each dimension listed; `$other` otherwise.
+macro_rules! by_const_base {
+    ($dim:expr, $f:ident $args:tt, $other:expr; $($d:literal => $b:literal),* $(,)?) => {
+        match $dim {
+            $($d => $f::<$b> $args,)*
+            _ => $other,
+        }
+    };
+}
+
+/// [`scrambled_radical_inverse`] for dimensions from [`PAIR_DIMS`] on,
+/// with a constant base below [`CONST_BASE_DIMS`] (the same bits).
+#[inline]
+pub fn scrambled_radical_inverse_fast(dim: usize, a: u64, perm: &[u16]) -> f32 {
+    by_const_base!(dim, scrambled_in(a, perm), scrambled_radical_inverse(dim, a, perm);
+        18 => 67, 19 => 71, 20 => 73, 21 => 79, 22 => 83, 23 => 89, 24 => 97, 25 => 101,
+        26 => 103, 27 => 107, 28 => 109, 29 => 113, 30 => 127, 31 => 131, 32 => 137,
+        33 => 139, 34 => 149, 35 => 151, 36 => 157, 37 => 163, 38 => 167, 39 => 173,
+        40 => 179, 41 => 181, 42 => 191, 43 => 193, 44 => 197, 45 => 199, 46 => 211,
+        47 => 223, 48 => 227, 49 => 229, 50 => 233, 51 => 239, 52 => 241, 53 => 251,
+        54 => 257, 55 => 263, 56 => 269, 57 => 271, 58 => 277, 59 => 281, 60 => 283,
+        61 => 293, 62 => 307, 63 => 311,
+    )
 }
 
 /// Dimensions below this (bases 2 … 61) get [`DigitPairs`] tables.
@@ -122,26 +181,42 @@ impl DigitPairs {
     /// [`scrambled_radical_inverse`] for a dimension `2 <= dim < PAIR_DIMS`.
     #[inline]
     pub fn scrambled_radical_inverse(&self, dim: usize, a: u64, perm: &[u16]) -> f32 {
-        let base = PRIMES[dim] as u64;
-        let base2 = base * base;
         let pairs = &self.table[self.offsets[dim]..];
-        let inv_base = 1.0f32 / base as f32;
-        let (mut a, mut reversed, mut inv_base_n) = (a, 0u64, 1.0f32);
-        while a >= base {
-            let next = a / base2;
-            let d = a - next * base2;
-            reversed = reversed.wrapping_mul(base2).wrapping_add(pairs[d as usize] as u64);
-            inv_base_n *= inv_base;
-            inv_base_n *= inv_base;
-            a = next;
-        }
-        if a != 0 {
-            reversed = reversed.wrapping_mul(base).wrapping_add(perm[a as usize] as u64);
-            inv_base_n *= inv_base;
-        }
-        let tail = inv_base * perm[0] as f32 / (1.0 - inv_base);
-        (inv_base_n * (reversed as f32 + tail)).min(ONE_MINUS_EPSILON)
+        by_const_base!(dim, pairs_in(a, pairs, perm), pairs_in_base(PRIMES[dim] as u64, a, pairs, perm);
+            2 => 5, 3 => 7, 4 => 11, 5 => 13, 6 => 17, 7 => 19, 8 => 23, 9 => 29, 10 => 31,
+            11 => 37, 12 => 41, 13 => 43, 14 => 47, 15 => 53, 16 => 59, 17 => 61,
+        )
     }
+}
+
+/// [`DigitPairs::scrambled_radical_inverse`] in base `base`, whose pair
+/// table is `pairs`.
+#[inline(always)]
+fn pairs_in_base(base: u64, a: u64, pairs: &[u32], perm: &[u16]) -> f32 {
+    let base2 = base * base;
+    let (pairs, perm) = (&pairs[..base2 as usize], &perm[..base as usize]);
+    let inv_base = 1.0f32 / base as f32;
+    let (mut a, mut reversed, mut inv_base_n) = (a, 0u64, 1.0f32);
+    while a >= base {
+        let next = a / base2;
+        let d = a - next * base2;
+        reversed = reversed.wrapping_mul(base2).wrapping_add(pairs[d as usize] as u64);
+        inv_base_n *= inv_base;
+        inv_base_n *= inv_base;
+        a = next;
+    }
+    if a != 0 {
+        reversed = reversed.wrapping_mul(base).wrapping_add(perm[a as usize] as u64);
+        inv_base_n *= inv_base;
+    }
+    let tail = inv_base * perm[0] as f32 / (1.0 - inv_base);
+    (inv_base_n * (reversed as f32 + tail)).min(ONE_MINUS_EPSILON)
+}
+
+/// [`pairs_in_base`] with the base a constant.
+#[inline(always)]
+fn pairs_in<const B: u64>(a: u64, pairs: &[u32], perm: &[u16]) -> f32 {
+    pairs_in_base(B, a, pairs, perm)
 }
 
 /// Random digit permutations for the first [`PRIME_TABLE_SIZE`] prime
@@ -311,9 +386,54 @@ mod tests {
             let edges = [0, 1, b - 1, b, b + 1, b * b - 1, b * b, b * b * b, u32::MAX as u64];
             let random = (0..2000).map(|_| rng.uniform_u32() as u64 >> (rng.uniform_u32() % 32));
             for a in edges.into_iter().chain(random).chain([1 << 40, u64::MAX >> 1]) {
-                let want = scrambled_radical_inverse(dim, a, perm);
+                let want = reference(dim, a, Some(perm));
+                assert_eq!(scrambled_radical_inverse(dim, a, perm).to_bits(), want.to_bits());
                 let got = pairs.scrambled_radical_inverse(dim, a, perm);
                 assert_eq!(got.to_bits(), want.to_bits(), "dim {dim}, a {a}");
+            }
+        }
+    }
+
+    /// pbrt-v3's `ScrambledRadicalInverse`, written out with the base
+    /// read from the table at run time; `perm: None` for the plain inverse.
+    fn reference(dim: usize, mut a: u64, perm: Option<&[u16]>) -> f32 {
+        let base = PRIMES[dim] as u64;
+        let p = |d: u64| perm.map_or(d, |p| p[d as usize] as u64);
+        let inv_base = 1.0f32 / base as f32;
+        let (mut reversed, mut inv_base_n) = (0u64, 1.0f32);
+        while a != 0 {
+            let next = a / base;
+            reversed = reversed.wrapping_mul(base).wrapping_add(p(a - next * base));
+            inv_base_n *= inv_base;
+            a = next;
+        }
+        let v = match perm {
+            Some(perm) => {
+                inv_base_n * (reversed as f32 + inv_base * perm[0] as f32 / (1.0 - inv_base))
+            }
+            None => reversed as f32 * inv_base_n,
+        };
+        v.min(ONE_MINUS_EPSILON)
+    }
+
+    #[test]
+    fn constant_bases_give_the_same_bits() {
+        let perms = compute_radical_inverse_permutations(&mut Rng::default());
+        let mut rng = Rng::new(5);
+        for dim in 1..CONST_BASE_DIMS + 8 {
+            let perm = &perms[PRIME_SUMS[dim] as usize..];
+            let b = PRIMES[dim] as u64;
+            let edges = [0, 1, b - 1, b, b + 1, b * b - 1, b * b, b * b * b, u32::MAX as u64];
+            let random = (0..500).map(|_| rng.uniform_u32() as u64 >> (rng.uniform_u32() % 32));
+            for a in edges.into_iter().chain(random).chain([1 << 40, (1 << 62) + 12345]) {
+                if dim == 1 {
+                    let (got, want) = (radical_inverse(1, a), reference(1, a, None));
+                    assert_eq!(got.to_bits(), want.to_bits(), "base 3, a {a}");
+                } else if dim >= PAIR_DIMS {
+                    let got = scrambled_radical_inverse_fast(dim, a, perm);
+                    let want = reference(dim, a, Some(perm));
+                    assert_eq!(got.to_bits(), want.to_bits(), "dim {dim}, a {a}");
+                }
             }
         }
     }
