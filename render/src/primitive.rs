@@ -4,7 +4,7 @@
 
 use crate::accel::Bvh;
 use crate::interaction::SurfaceInteraction;
-use crate::shapes::{Shape, Triangle};
+use crate::shapes::{Shape, TriRay, Triangle};
 use farm_common::geometry::{AnimatedTransform, Bounds3f, Ray, Transform};
 use std::sync::Arc;
 
@@ -128,10 +128,12 @@ impl Aggregate {
             Other(SurfaceInteraction),
         }
         let mut best: Option<(f32, usize, Closest)> = None;
+        let tr = TriRay::new(ray);
         self.bvh.intersect(ray, |i, r| {
             let (t, closest) = match &self.prims[i].shape {
                 Shape::Triangle { mesh, v } => {
-                    let (t, b) = Triangle { mesh, v: *v }.hit_barycentrics(r, true)?;
+                    let (t, b) =
+                        Triangle { mesh, v: *v }.hit_barycentrics_prepared(r, &tr, true)?;
                     (t, Closest::Triangle(b))
                 }
                 shape => {
@@ -156,7 +158,8 @@ impl Aggregate {
     /// Whether anything blocks `ray` before its `t_max`.
     #[inline]
     pub fn intersect_p(&self, ray: &Ray) -> bool {
-        self.bvh.intersect_any(ray, |i, r| self.prims[i].shape.intersect_p(r))
+        let tr = TriRay::new(ray);
+        self.bvh.intersect_any(ray, |i, r| self.prims[i].shape.intersect_p_prepared(r, &tr))
     }
 }
 

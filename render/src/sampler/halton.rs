@@ -12,8 +12,7 @@
 
 use super::lowdiscrepancy::{
     compute_radical_inverse_permutations, inverse_radical_inverse, radical_inverse,
-    radical_inverse_permutations_prefix, scrambled_radical_inverse, scrambled_radical_inverse_fast,
-    DigitPairs, PAIR_DIMS,
+    radical_inverse_permutations_prefix, scrambled_radical_inverse_fast, DigitPairs, PAIR_DIMS,
     PRIME_SUMS, PRIME_TABLE_SIZE,
 };
 use super::pixel::{GlobalSampler, GlobalSequence};
@@ -168,6 +167,7 @@ impl GlobalSequence for Halton {
 
 #[cfg(test)]
 mod tests {
+    use super::super::lowdiscrepancy::scrambled_radical_inverse;
     use super::*;
 
     fn bounds(w: i32, h: i32) -> Bounds2i {

@@ -28,7 +28,7 @@ pub use hyperboloid::Hyperboloid;
 pub use loopsubdiv::loop_subdivide;
 pub use paraboloid::Paraboloid;
 pub use sphere::Sphere;
-pub use triangle::{AlphaMask, AlphaTexture, Triangle, TriangleMesh};
+pub use triangle::{AlphaMask, AlphaTexture, TriRay, Triangle, TriangleMesh};
 
 use crate::interaction::{Interaction, SurfaceInteraction};
 
@@ -117,6 +117,15 @@ impl Shape {
     #[inline]
     pub fn intersect_p(&self, ray: &Ray) -> bool {
         dispatch!(self, s => s.intersect_p(ray))
+    }
+
+    /// [`Shape::intersect_p`] with `ray` prepared for triangles as `tr`.
+    #[inline(always)]
+    pub fn intersect_p_prepared(&self, ray: &Ray, tr: &TriRay) -> bool {
+        match self {
+            Shape::Triangle { mesh, v } => Triangle { mesh, v: *v }.intersect_p_prepared(ray, tr),
+            _ => dispatch!(self, s => s.intersect_p(ray)),
+        }
     }
 
     /// Surface area (for quadrics and curves, in object space as in pbrt-v3).

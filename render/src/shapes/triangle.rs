@@ -7,6 +7,7 @@ use crate::interaction::{Interaction, Shading, SurfaceInteraction};
 use crate::sampling::uniform_sample_triangle;
 use crate::textures::{TexInput, TextureSet};
 use farm_common::geometry::{coordinate_system, face_forward, gamma, Bounds3f, Ray, Vec2, Vec3};
+use glam::Vec3Swizzles;
 use std::sync::Arc;
 
 /// An alpha mask on a mesh (`"float alpha"`, `"texture alpha"` and their `shadowalpha` twins).
@@ -76,6 +77,52 @@ pub struct Triangle<'a> {
     pub v: [u32; 3],
 }
 
+/// What pbrt-v3's watertight test works out from the ray alone before it
+/// looks at a triangle: the axis permutation that makes the direction's
+/// largest component z, and the shear that maps the direction onto +z.
+/// Made once per ray and used for every triangle the ray is tested
+/// against; the values, and so the hits, are those pbrt-v3 computes per
+/// test.
+#[derive(Clone, Copy, Debug)]
+pub struct TriRay {
+    /// The axis that becomes z; `kz + 1` and `kz + 2` (mod 3) become x and y.
+    kz: u8,
+    /// `-d.x / d.z`, `-d.y / d.z` and `1 / d.z` of the permuted direction.
+    s: [f32; 3],
+}
+
+impl TriRay {
+    /// The permutation and shear of `ray`'s direction.
+    #[inline(always)]
+    pub fn new(ray: &Ray) -> Self {
+        let ad = ray.d.abs();
+        let kz: u8 = if ad.x > ad.y {
+            if ad.x > ad.z {
+                0
+            } else {
+                2
+            }
+        } else if ad.y > ad.z {
+            1
+        } else {
+            2
+        };
+        let d = TriRay { kz, s: [0.0; 3] }.permute(ray.d);
+        TriRay { kz, s: [-d.x / d.z, -d.y / d.z, 1.0 / d.z] }
+    }
+
+    /// `v` with the axes (kz + 1, kz + 2, kz) mod 3 as (x, y, z). The same
+    /// for every triangle a ray meets, so the branch is predicted.
+    #[inline(always)]
+    fn permute(&self, v: Vec3) -> Vec3 {
+        match self.kz {
+            0 => v.yzx(),
+            1 => v.zxy(),
+            _ => v,
+        }
+    }
+}
+
 /// The result of the watertight test: barycentrics and t.
 struct RawHit {
     b: [f32; 3],
@@ -95,35 +142,16 @@ impl Triangle<'_> {
         Bounds3f::new(p0, p1).union_point(p2)
     }
 
-    /// The watertight ray–triangle test.
+    /// The watertight ray–triangle test, with the ray's permutation and
+    /// shear already worked out (`tr`, made from `ray` or a ray with the
+    /// same direction).
     #[inline(always)]
-    fn raw_hit(&self, ray: &Ray) -> Option<RawHit> {
+    fn raw_hit_prepared(&self, ray: &Ray, tr: &TriRay) -> Option<RawHit> {
         let (p0, p1, p2) = self.points();
-        let (mut p0t, mut p1t, mut p2t) = (p0 - ray.o, p1 - ray.o, p2 - ray.o);
-        // Permute so that the ray's largest direction component is z.
-        let ad = ray.d.abs();
-        let kz = if ad.x > ad.y {
-            if ad.x > ad.z {
-                0
-            } else {
-                2
-            }
-        } else if ad.y > ad.z {
-            1
-        } else {
-            2
-        };
-        let kx = if kz + 1 == 3 { 0 } else { kz + 1 };
-        let ky = if kx + 1 == 3 { 0 } else { kx + 1 };
-        let perm = |v: Vec3| Vec3::new(v[kx], v[ky], v[kz]);
-        let d = perm(ray.d);
-        p0t = perm(p0t);
-        p1t = perm(p1t);
-        p2t = perm(p2t);
+        let (mut p0t, mut p1t, mut p2t) =
+            (tr.permute(p0 - ray.o), tr.permute(p1 - ray.o), tr.permute(p2 - ray.o));
         // Shear so the ray runs along +z.
-        let sx = -d.x / d.z;
-        let sy = -d.y / d.z;
-        let sz = 1.0 / d.z;
+        let [sx, sy, sz] = tr.s;
         p0t.x += sx * p0t.z;
         p0t.y += sy * p0t.z;
         p1t.x += sx * p1t.z;
@@ -196,7 +224,18 @@ impl Triangle<'_> {
     /// interaction of that one only ([`Triangle::interaction`]).
     #[inline]
     pub fn hit_barycentrics(&self, ray: &Ray, test_alpha: bool) -> Option<(f32, [f32; 3])> {
-        let h = self.raw_hit(ray)?;
+        self.hit_barycentrics_prepared(ray, &TriRay::new(ray), test_alpha)
+    }
+
+    /// [`Triangle::hit_barycentrics`] with `ray` prepared as `tr`.
+    #[inline(always)]
+    pub fn hit_barycentrics_prepared(
+        &self,
+        ray: &Ray,
+        tr: &TriRay,
+        test_alpha: bool,
+    ) -> Option<(f32, [f32; 3])> {
+        let h = self.raw_hit_prepared(ray, tr)?;
         if test_alpha && self.cuts(&self.mesh.alpha, ray, h.b) {
             return None;
         }
@@ -335,7 +374,13 @@ impl Triangle<'_> {
 
     /// Whether the ray hits (shadow rays: both alpha masks apply).
     pub fn intersect_p(&self, ray: &Ray) -> bool {
-        let Some(h) = self.raw_hit(ray) else { return false };
+        self.intersect_p_prepared(ray, &TriRay::new(ray))
+    }
+
+    /// [`Triangle::intersect_p`] with `ray` prepared as `tr`.
+    #[inline(always)]
+    pub fn intersect_p_prepared(&self, ray: &Ray, tr: &TriRay) -> bool {
+        let Some(h) = self.raw_hit_prepared(ray, tr) else { return false };
         let m = self.mesh;
         !(self.cuts(&m.alpha, ray, h.b) || self.cuts(&m.shadow_alpha, ray, h.b))
     }
@@ -372,6 +417,42 @@ mod tests {
     use super::*;
     use crate::shapes::Shape;
     use farm_common::rng::Rng;
+
+    #[test]
+    fn a_prepared_ray_permutes_and_shears_as_pbrt_does() {
+        // pbrt-v3: kz the largest |d| component (ties to the later axis
+        // only when strictly larger), kx = kz + 1, ky = kx + 1 (mod 3).
+        let dirs = [
+            Vec3::new(0.9, -0.3, 0.2),
+            Vec3::new(0.1, -0.8, 0.3),
+            Vec3::new(-0.2, 0.3, -0.7),
+            Vec3::new(0.5, 0.5, 0.1),
+            Vec3::new(0.5, -0.2, -0.5),
+            Vec3::new(0.3, 0.6, 0.6),
+            Vec3::new(0.4, 0.4, 0.4),
+        ];
+        for d in dirs {
+            let ad = d.abs();
+            let kz = if ad.x > ad.y {
+                if ad.x > ad.z {
+                    0
+                } else {
+                    2
+                }
+            } else if ad.y > ad.z {
+                1
+            } else {
+                2
+            };
+            let (kx, ky) = ((kz + 1) % 3, (kz + 2) % 3);
+            let tr = TriRay::new(&Ray::new(Vec3::ZERO, d, 0.0));
+            assert_eq!(tr.kz as usize, kz, "{d}");
+            let want = [-d[kx] / d[kz], -d[ky] / d[kz], 1.0 / d[kz]];
+            assert_eq!(tr.s.map(f32::to_bits), want.map(f32::to_bits), "{d}");
+            let v = Vec3::new(1.0, 2.0, 3.0);
+            assert_eq!(tr.permute(v), Vec3::new(v[kx], v[ky], v[kz]), "{d}");
+        }
+    }
 
     fn octahedron(scale: f32, offset: Vec3) -> Vec<Shape> {
         let p: Vec<Vec3> = [Vec3::X, -Vec3::X, Vec3::Y, -Vec3::Y, Vec3::Z, -Vec3::Z]
