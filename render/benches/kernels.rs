@@ -308,8 +308,8 @@ mod bvh {
         let b = aggregate.bounds();
         let shadow: Vec<Ray> = camera
             .iter()
-            .map(|r| match aggregate.intersect(r) {
-                Some((_, hit)) => hit.si.it.spawn_ray_to_point(light),
+            .map(|r| match aggregate.closest(r) {
+                Some((_, si)) => si.it.spawn_ray_to_point(light),
                 None => {
                     let o = b.min + b.diagonal() * v3(&mut rng, 0.0, 1.0);
                     Ray { o, d: light - o, t_max: 1.0, time: 0.0 }
@@ -328,7 +328,7 @@ mod bvh {
         let s = &*SETUP;
         bencher.counter(ItemsCount::new(s.camera.len())).bench_local(|| {
             for r in black_box(&s.camera) {
-                black_box(s.aggregate.intersect(r));
+                black_box(s.aggregate.closest(r));
             }
         });
     }
@@ -339,7 +339,7 @@ mod bvh {
         let s = &*SETUP;
         bencher.counter(ItemsCount::new(s.shadow.len())).bench_local(|| {
             for r in black_box(&s.shadow) {
-                black_box(s.aggregate.intersect(r));
+                black_box(s.aggregate.closest(r));
             }
         });
     }

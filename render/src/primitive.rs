@@ -57,15 +57,6 @@ impl From<Option<u32>> for MaybeIndex {
     }
 }
 
-/// A closest hit and the primitive it landed on.
-#[derive(Clone, Copy, Debug)]
-pub struct Hit<'a> {
-    /// The surface point, in render space.
-    pub si: SurfaceInteraction,
-    /// The primitive hit.
-    pub prim: &'a Primitive,
-}
-
 /// Primitives ordered for a BVH over them.
 #[derive(Debug)]
 pub struct Aggregate {
@@ -118,41 +109,48 @@ impl Aggregate {
         &self.prims
     }
 
-    /// The closest hit along `ray` before its `t_max`; returns its `t` too.
+    /// The closest hit along `ray` before its `t_max`: its `t` and the
+    /// primitive hit, with the surface point written to `si` (render
+    /// space). `si` is written only by hits, each closer than the last, so
+    /// a miss leaves it as it was.
     #[inline]
-    pub fn intersect(&self, ray: &Ray) -> Option<(f32, Hit<'_>)> {
-        // A triangle's interaction is built for the closest hit only; other
-        // shapes build theirs as they are hit.
-        enum Closest {
-            Triangle([f32; 3]),
-            Other(SurfaceInteraction),
-        }
-        let mut best: Option<(f32, usize, Closest)> = None;
+    pub fn intersect(&self, ray: &Ray, si: &mut SurfaceInteraction) -> Option<(f32, &Primitive)> {
+        // A triangle's interaction is built for the closest hit only, from
+        // its barycentrics; other shapes build theirs as they are hit.
+        let mut best: Option<(f32, usize, Option<[f32; 3]>)> = None;
         let tr = TriRay::new(ray);
         self.bvh.intersect(ray, |i, r| {
-            let (t, closest) = match &self.prims[i].shape {
+            let (t, barycentrics) = match &self.prims[i].shape {
                 Shape::Triangle { mesh, v } => {
                     let (t, b) =
                         Triangle { mesh, v: *v }.hit_barycentrics_prepared(r, &tr, true)?;
-                    (t, Closest::Triangle(b))
+                    (t, Some(b))
                 }
                 shape => {
-                    let (t, si) = shape.intersect(r)?;
-                    (t, Closest::Other(si))
+                    let t = shape.intersect_into(r, si)?;
+                    (t, None)
                 }
             };
-            best = Some((t, i, closest));
+            best = Some((t, i, barycentrics));
             Some(t)
         });
-        let (t, i, closest) = best?;
+        let (t, i, barycentrics) = best?;
         let prim = &self.prims[i];
-        let mut si = match closest {
+        if let Some(b) = barycentrics {
             // Barycentrics are only ever recorded for a triangle.
-            Closest::Triangle(b) => prim.shape.triangle()?.interaction(ray, b),
-            Closest::Other(si) => si,
-        };
+            prim.shape.triangle()?.interaction_into(ray, b, si);
+        }
         si.prim = i as u32;
-        Some((t, Hit { si, prim }))
+        Some((t, prim))
+    }
+
+    /// [`Aggregate::intersect`] returning the interaction by value (with
+    /// `prim` the index of the primitive hit), for callers outside the
+    /// render loop.
+    pub fn closest(&self, ray: &Ray) -> Option<(f32, SurfaceInteraction)> {
+        let mut si = SurfaceInteraction::default();
+        let (t, _) = self.intersect(ray, &mut si)?;
+        Some((t, si))
     }
 
     /// Whether anything blocks `ray` before its `t_max`.
@@ -198,13 +196,15 @@ impl Instance {
         }
     }
 
-    /// The closest hit, moved back to render space.
+    /// The closest hit, its surface point moved back to render space in
+    /// `si` (see [`Aggregate::intersect`]).
     #[inline]
-    pub fn intersect(&self, ray: &Ray) -> Option<(f32, Hit<'_>)> {
+    pub fn intersect(&self, ray: &Ray, si: &mut SurfaceInteraction) -> Option<(f32, &Primitive)> {
         let xf = self.render_from_instance(ray.time);
         let local = xf.inverse().ray(ray);
-        let (t, hit) = self.geometry.intersect(&local)?;
-        Some((t, Hit { si: hit.si.transform(&xf), prim: hit.prim }))
+        let hit = self.geometry.intersect(&local, si)?;
+        *si = si.transform(&xf);
+        Some(hit)
     }
 
     /// Whether anything in the instance blocks `ray`.

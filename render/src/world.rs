@@ -5,9 +5,10 @@
 
 use crate::accel::Bvh;
 use crate::error::BuildError;
+use crate::interaction::SurfaceInteraction;
 use crate::lights::{self, DiffuseAreaLight, Light};
 use crate::materials::{self, Material};
-use crate::primitive::{Aggregate, Hit, Instance, MaybeIndex, Placement, Primitive};
+use crate::primitive::{Aggregate, Instance, MaybeIndex, Placement, Primitive};
 use crate::shapes::{self, Shape};
 use crate::textures::{self, TextureSet};
 use farm_common::geometry::{AnimatedTransform, Bounds3f, DMat4, Ray, Transform, Vec3};
@@ -153,24 +154,22 @@ impl World {
         })
     }
 
-    /// The closest hit along `ray`.
+    /// The closest hit along `ray`: the primitive, with the surface point
+    /// written to `si` (left as it was on a miss).
     #[inline]
-    pub fn intersect(&self, ray: &Ray) -> Option<Hit<'_>> {
+    pub fn intersect(&self, ray: &Ray, si: &mut SurfaceInteraction) -> Option<&Primitive> {
         let mut r = *ray;
-        let mut best = self.aggregate.intersect(&r).map(|(t, h)| {
+        let mut best = self.aggregate.intersect(&r, si).map(|(t, prim)| {
             r.t_max = t;
-            h
+            prim
         });
         if !self.instances.is_empty() {
-            let mut inst_hit = None;
+            // Only hits closer than the best so far write `si`.
             self.instance_bvh.intersect(&r, |i, rr| {
-                let (t, h) = self.instances[i].intersect(rr)?;
-                inst_hit = Some(h);
+                let (t, prim) = self.instances[i].intersect(rr, si)?;
+                best = Some(prim);
                 Some(t)
             });
-            if inst_hit.is_some() {
-                best = inst_hit;
-            }
         }
         best
     }

@@ -120,7 +120,7 @@ fn closed_mesh_is_watertight_at_shared_edges_and_vertices() {
     let mut check = |o: Vec3, target: Vec3, inner: Option<Vec3>| {
         let ray = Ray::new(o, target - o, 0.0);
         rays += 1;
-        let hit = agg.intersect(&ray);
+        let hit = agg.closest(&ray);
         if hit.is_none() || !agg.intersect_p(&ray) {
             missed += 1;
             return;

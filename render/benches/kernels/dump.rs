@@ -89,8 +89,8 @@ pub fn run(dir: &Path) {
             std::fs::write(dir.join(&rays_file), out).expect("write rays");
             let mut out = Vec::with_capacity(rays.len() * 12);
             for r in rays {
-                let (prim, t) = match aggregate.intersect(r) {
-                    Some((t, hit)) => (hit.si.prim as i32, t),
+                let (prim, t) = match aggregate.closest(r) {
+                    Some((t, si)) => (si.prim as i32, t),
                     None => (-1, f32::INFINITY),
                 };
                 out.extend(prim.to_le_bytes());
@@ -120,7 +120,7 @@ pub fn run(dir: &Path) {
                     rays.len()
                 ));
             };
-            time("closest_aggregate", &|r| aggregate.intersect(r).is_some());
+            time("closest_aggregate", &|r| aggregate.closest(r).is_some());
             time("closest_bare", &|r| {
                 bare.intersect(r, |i, r| tris[i].hit_barycentrics(r, true).map(|(t, _)| t))
             });

@@ -6,7 +6,6 @@
 
 use crate::bxdf::{Bsdf, BsdfSample, BxDFType, TransportMode};
 use crate::interaction::SurfaceInteraction;
-use crate::primitive::Hit;
 use crate::sampler::Sampler;
 use crate::world::World;
 use farm_common::geometry::RayDifferential;
@@ -30,7 +29,8 @@ impl Whitted {
         depth: u32,
         stats: &mut RayStats,
     ) -> Spectrum {
-        let Some(Hit { mut si, prim }) = scene.intersect(&ray.ray) else {
+        let mut si = SurfaceInteraction::default();
+        let Some(prim) = scene.intersect(&ray.ray, &mut si) else {
             // Escaped: radiance from infinite lights.
             let mut l = Spectrum::ZERO;
             for light in &scene.lights {

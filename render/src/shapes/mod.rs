@@ -104,6 +104,15 @@ impl Shape {
         dispatch!(self, s => s.intersect(ray))
     }
 
+    /// [`Shape::intersect`] with the interaction written to `si`; `si` is
+    /// left alone on a miss.
+    #[inline(always)]
+    pub fn intersect_into(&self, ray: &Ray, si: &mut SurfaceInteraction) -> Option<f32> {
+        let (t, hit) = self.intersect(ray)?;
+        *si = hit;
+        Some(t)
+    }
+
     /// Like [`Shape::intersect`] but ignoring alpha masks (pbrt-v3 `Pdf`'s lookup).
     #[inline]
     pub fn intersect_no_alpha(&self, ray: &Ray) -> Option<(f32, SurfaceInteraction)> {

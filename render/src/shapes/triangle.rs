@@ -258,6 +258,16 @@ impl Triangle<'_> {
 
     /// The surface interaction at barycentrics `b` of a hit by `ray`.
     pub fn interaction(self, ray: &Ray, b: [f32; 3]) -> SurfaceInteraction {
+        let mut si = SurfaceInteraction::default();
+        self.interaction_into(ray, b, &mut si);
+        si
+    }
+
+    /// [`Triangle::interaction`] written to `si`, the caller's, so that the
+    /// closest hit's interaction is built where it is used rather than
+    /// copied out through each layer of the intersection.
+    #[inline]
+    pub fn interaction_into(self, ray: &Ray, b: [f32; 3], si: &mut SurfaceInteraction) {
         let mesh = self.mesh;
         let (p0, p1, p2) = self.points();
         let [b0, b1, b2] = b;
@@ -281,7 +291,7 @@ impl Triangle<'_> {
         let p_hit = b0 * p0 + b1 * p1 + b2 * p2;
         let uv_hit = b0 * uv[0] + b1 * uv[1] + b2 * uv[2];
         let flip = mesh.reverse_orientation ^ mesh.transform_swaps_handedness;
-        let mut si = SurfaceInteraction::new(
+        *si = SurfaceInteraction::new(
             p_hit,
             p_error,
             uv_hit,
@@ -297,7 +307,7 @@ impl Triangle<'_> {
         si.it.n = ng;
         si.shading.n = ng;
         if mesh.n.is_some() || mesh.s.is_some() {
-            self.shading_geometry(&mut si, b, &uv, flip);
+            self.shading_geometry(si, b, &uv, flip);
         }
         if mesh.n.is_some() {
             si.it.n = face_forward(si.it.n, si.shading.n);
@@ -305,7 +315,6 @@ impl Triangle<'_> {
             si.it.n = -si.it.n;
             si.shading.n = si.it.n;
         }
-        si
     }
 
     /// Interpolated normals and tangents (pbrt-v3's `SetShadingGeometry`

@@ -59,7 +59,9 @@ fn middle_hit(r: &Renderer) -> Vec3 {
     let res = r.film.full_resolution;
     let p_film = Vec2::new(res.x as f32, res.y as f32) / 2.0;
     let (_, ray) = r.camera.generate_ray(&CameraSample { p_film, ..Default::default() });
-    r.world.intersect(&ray).expect("the middle ray hits").si.p()
+    let mut si = Default::default();
+    r.world.intersect(&ray, &mut si).expect("the middle ray hits");
+    si.p()
 }
 
 /// A plastic ground at y = -3 and a sphere on it, seen from straight above by
