@@ -39,7 +39,7 @@ pub fn next_float_down(v: f32) -> f32 {
 /// Moves a ray origin `p` with absolute error `p_error` off the surface with
 /// geometric normal `n`, to the side `w` points to, far enough that the ray
 /// cannot re-intersect the surface it leaves (pbrt-v3 `OffsetRayOrigin`).
-#[inline]
+#[inline(always)]
 pub fn offset_ray_origin(p: Vec3, p_error: Vec3, n: Vec3, w: Vec3) -> Vec3 {
     let d = n.abs().dot(p_error);
     let mut offset = d * n;
