@@ -145,7 +145,7 @@ impl Shape {
     /// A point on the surface with its normal and error bound, and the
     /// density with respect to area. pbrt-v3 cannot sample cones,
     /// paraboloids, hyperboloids or curves; those return density 0.
-    #[inline]
+    #[inline(always)]
     pub fn sample_area(&self, u: Vec2) -> (Interaction, f32) {
         match self {
             Shape::Sphere(s) => s.sample_area(u),
@@ -158,6 +158,7 @@ impl Shape {
 
     /// A point sampled for lighting `reference`, with its density with
     /// respect to solid angle at `reference`; `None` when that density is 0 or infinite.
+    #[inline(always)]
     pub fn sample_from(&self, reference: &Interaction, u: Vec2) -> Option<(Interaction, f32)> {
         match self {
             Shape::Sphere(s) => s.sample_from(reference, u),
@@ -178,6 +179,7 @@ impl Shape {
 }
 
 /// Converts an area-density sample to solid angle at `reference` (pbrt-v3 `Shape::Sample(ref, u)`).
+#[inline(always)]
 fn area_to_solid_angle(
     reference: &Interaction,
     mut it: Interaction,

@@ -212,6 +212,7 @@ impl Sphere {
     }
 
     /// pbrt-v3's cone sampling of the visible cap (uniform area sampling from inside).
+    #[inline(always)]
     pub fn sample_from(&self, reference: &Interaction, u: Vec2) -> Option<(Interaction, f32)> {
         let pl = &self.placement;
         let p_center = pl.render_from_object.point(Vec3::ZERO);

@@ -401,6 +401,7 @@ impl Triangle<'_> {
     }
 
     /// A uniform point and its area density.
+    #[inline(always)]
     pub fn sample_area(&self, u: Vec2) -> (Interaction, f32) {
         let b = uniform_sample_triangle(u);
         let (p0, p1, p2) = self.points();
