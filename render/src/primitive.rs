@@ -154,7 +154,7 @@ impl Aggregate {
     }
 
     /// Whether anything blocks `ray` before its `t_max`.
-    #[inline]
+    #[inline(always)]
     pub fn intersect_p(&self, ray: &Ray) -> bool {
         let tr = TriRay::new(ray);
         self.bvh.intersect_any(ray, |i, r| self.prims[i].shape.intersect_p_prepared(r, &tr))

@@ -175,7 +175,7 @@ impl World {
     }
 
     /// Whether anything blocks `ray` before its `t_max`.
-    #[inline]
+    #[inline(always)]
     pub fn intersect_p(&self, ray: &Ray) -> bool {
         self.aggregate.intersect_p(ray)
             || (!self.instances.is_empty()

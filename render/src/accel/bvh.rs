@@ -397,7 +397,7 @@ impl Bvh {
 
     /// Any hit: like [`Bvh::intersect`] but stops at the first primitive
     /// for which `f` returns `true` (shadow rays), in no particular order.
-    #[inline]
+    #[inline(always)]
     pub fn intersect_any<F: FnMut(usize, &Ray) -> bool>(&self, ray: &Ray, mut f: F) -> bool {
         if self.nodes.is_empty() {
             return false;
