@@ -243,7 +243,7 @@ impl Convergence {
                 (lo.min(math::log10(v)), hi.max(math::log10(v)))
             });
             if lo.is_finite() {
-                (lo.floor(), hi.ceil().max(lo.floor() + 1.0))
+                (math::floor(lo), math::ceil(hi).max(math::floor(lo) + 1.0))
             } else {
                 (0.0, 1.0)
             }

@@ -2,8 +2,10 @@
 //! platform's C maths library: glibc's `sinf`, `expf`, `powf`… have
 //! changed between versions (and differ again on musl or macOS), so a farm
 //! mixing hosts would render tiles that differ in their last bits. These
-//! give the same bits on every host. `sqrt` and the rounding functions are
-//! exact by IEEE 754 and stay with `std`.
+//! give the same bits on every host. `sqrt` is exact by IEEE 754 and stays
+//! with `std`. So are `floor` and `ceil`, but on baseline x86-64 (no
+//! SSE4.1 `roundss`) `std` calls the C library's `floorf` out of line for
+//! them; [`floor`] and [`ceil`] here are the same exact functions inline.
 //!
 //! Each function takes `f32` or `f64` ([`Real`]), so a call site reads as
 //! the method it replaces: `x.sin()` becomes `math::sin(x)`,
@@ -18,6 +20,10 @@ pub trait Real: Copy + private::Sealed {
     fn lm2(self, other: Self, f: Fn2) -> Self;
     #[doc(hidden)]
     fn lm_sin_cos(self) -> (Self, Self);
+    #[doc(hidden)]
+    fn round_down(self) -> Self;
+    #[doc(hidden)]
+    fn round_up(self) -> Self;
 }
 
 mod private {
@@ -53,8 +59,30 @@ pub enum Fn2 {
 macro_rules! real {
     ($t:ty, $sin:ident, $cos:ident, $tan:ident, $asin:ident, $acos:ident, $atan:ident,
      $exp:ident, $ln:ident, $log2:ident, $log10:ident, $sinh:ident, $tanh:ident,
-     $atan2:ident, $pow:ident, $sincos:ident) => {
+     $atan2:ident, $pow:ident, $sincos:ident, $int:ty) => {
         impl Real for $t {
+            #[inline(always)]
+            fn round_down(self) -> Self {
+                // From 2^(mantissa bits) up every float is an integer; so
+                // are the infinities, and NaN stays NaN.
+                if self.is_nan() || self.abs() >= (1u64 << (<$t>::MANTISSA_DIGITS - 1)) as $t {
+                    return self;
+                }
+                // Truncation is exact below that; a negative non-integer
+                // truncates up, one too far. The sign of zero follows `self`.
+                let t = self as $int as $t;
+                let r = if t > self { t - 1.0 } else { t };
+                r.copysign(self)
+            }
+            #[inline(always)]
+            fn round_up(self) -> Self {
+                if self.is_nan() || self.abs() >= (1u64 << (<$t>::MANTISSA_DIGITS - 1)) as $t {
+                    return self;
+                }
+                let t = self as $int as $t;
+                let r = if t < self { t + 1.0 } else { t };
+                r.copysign(self)
+            }
             #[inline]
             fn lm1(self, f: Fn1) -> Self {
                 match f {
@@ -89,9 +117,12 @@ macro_rules! real {
 
 real!(
     f32, sinf, cosf, tanf, asinf, acosf, atanf, expf, logf, log2f, log10f, sinhf, tanhf, atan2f,
-    powf, sincosf
+    powf, sincosf, i32
 );
-real!(f64, sin, cos, tan, asin, acos, atan, exp, log, log2, log10, sinh, tanh, atan2, pow, sincos);
+real!(
+    f64, sin, cos, tan, asin, acos, atan, exp, log, log2, log10, sinh, tanh, atan2, pow, sincos,
+    i64
+);
 
 macro_rules! one {
     ($($(#[$doc:meta])* $name:ident => $f:ident;)*) => {
@@ -150,9 +181,70 @@ pub fn sin_cos<T: Real>(x: T) -> (T, T) {
     x.lm_sin_cos()
 }
 
+/// The largest integer not above `x`, as `x.floor()` (the same value,
+/// without a call into the C library).
+#[inline(always)]
+pub fn floor<T: Real>(x: T) -> T {
+    x.round_down()
+}
+
+/// The smallest integer not below `x`, as `x.ceil()`.
+#[inline(always)]
+pub fn ceil<T: Real>(x: T) -> T {
+    x.round_up()
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    #[allow(clippy::disallowed_methods)]
+    fn floor_and_ceil_are_std_s_to_the_bit() {
+        let mut xs: Vec<f32> = vec![
+            0.0,
+            -0.0,
+            0.5,
+            -0.5,
+            1.0,
+            -1.0,
+            1.5,
+            -1.5,
+            2.5,
+            -2.5,
+            0.999_999_94,
+            -0.999_999_94,
+            8388607.5,
+            -8388607.5,
+            8388608.0,
+            -8388608.0,
+            16777217.0,
+            1e30,
+            -1e30,
+            1e-40,
+            -1e-40,
+            f32::MAX,
+            f32::MIN,
+            f32::MIN_POSITIVE,
+            f32::INFINITY,
+            f32::NEG_INFINITY,
+            f32::NAN,
+        ];
+        let mut r = crate::rng::Rng::new(3);
+        xs.extend((0..100_000).map(|_| f32::from_bits(r.uniform_u32())));
+        xs.extend((0..100_000).map(|_| (r.uniform_f32() - 0.5) * 1000.0));
+        for x in xs {
+            assert_eq!(floor(x).to_bits(), x.floor().to_bits(), "floor {x:e}");
+            assert_eq!(ceil(x).to_bits(), x.ceil().to_bits(), "ceil {x:e}");
+            let d = x as f64 * 1.000_000_1;
+            assert_eq!(floor(d).to_bits(), d.floor().to_bits(), "floor {d:e}");
+            assert_eq!(ceil(d).to_bits(), d.ceil().to_bits(), "ceil {d:e}");
+        }
+        for d in [4503599627370495.5f64, -4503599627370495.5, 4503599627370496.0, -0.0, 0.25] {
+            assert_eq!(floor(d).to_bits(), d.floor().to_bits(), "floor {d:e}");
+            assert_eq!(ceil(d).to_bits(), d.ceil().to_bits(), "ceil {d:e}");
+        }
+    }
 
     #[test]
     fn these_are_libm_s_bits() {

@@ -15,6 +15,7 @@ use farm_common::geometry::{
     AnimatedTransform, Bounds2i, DMat4, DVec3, Point2i, RayDifferential, Transform, Vec2,
 };
 use farm_common::ids::TileId;
+use farm_common::math;
 use farm_common::scene::{Entity, Params, SceneDescription, Warning};
 use farm_common::Spectrum;
 
@@ -465,21 +466,20 @@ impl Renderer {
         let r = self.film.filter_radius;
         let pd = p_film - Vec2::splat(0.5);
         let b = tile.pixel_bounds;
-        let x0 = ((pd.x - r.x).ceil() as i32).max(b.min.x);
-        let y0 = ((pd.y - r.y).ceil() as i32).max(b.min.y);
-        let x1 = ((pd.x + r.x).floor() as i32 + 1).min(b.max.x);
-        let y1 = ((pd.y + r.y).floor() as i32 + 1).min(b.max.y);
+        let x0 = (math::ceil(pd.x - r.x) as i32).max(b.min.x);
+        let y0 = (math::ceil(pd.y - r.y) as i32).max(b.min.y);
+        let x1 = (math::floor(pd.x + r.x) as i32 + 1).min(b.max.x);
+        let y1 = (math::floor(pd.y + r.y) as i32 + 1).min(b.max.y);
         let lw = l * sample_weight;
         let last = FILTER_TABLE_SIZE - 1;
         for py in y0..y1 {
+            // pbrt-v3's floor of a magnitude: the cast truncates, the same.
             let fy = ((py as f32 - pd.y) * self.inv_filter_radius.y * FILTER_TABLE_SIZE as f32)
-                .abs()
-                .floor() as usize;
+                .abs() as usize;
             let fy = fy.min(last);
             for px in x0..x1 {
                 let fx = ((px as f32 - pd.x) * self.inv_filter_radius.x * FILTER_TABLE_SIZE as f32)
-                    .abs()
-                    .floor() as usize;
+                    .abs() as usize;
                 let w = self.filter_table[fy * FILTER_TABLE_SIZE + fx.min(last)];
                 tile.add(Point2i::new(px, py), lw, w, second_half);
             }

@@ -2,6 +2,7 @@
 
 use farm_cli::embedded::{self as submit, SubmitOptions};
 use farm_common::image::{write_image, ImageMetadata};
+use farm_common::math;
 use std::path::Path;
 
 fn example() -> std::path::PathBuf {
@@ -56,7 +57,7 @@ fn a_crop_is_bit_identical_to_the_same_pixels_of_the_full_render() {
         let full = render(None);
         let crop = render(Some([0.25, 0.75, 0.3, 0.8]));
         // pbrt-v3's rounding: pixels from ceil(res × fraction), in f32.
-        let edge = |res: f32, f: f32| (res * f).ceil() as usize;
+        let edge = |res: f32, f: f32| math::ceil(res * f) as usize;
         let (x0, y0) = (edge(150.0, 0.25), edge(100.0, 0.3));
         assert_eq!(crop.width, edge(150.0, 0.75) - x0, "{sampler}");
         assert_eq!(crop.height, edge(100.0, 0.8) - y0, "{sampler}");

@@ -1,6 +1,7 @@
 use super::SamplerKind;
 use crate::geometry::{Bounds2i, Point2i, Vec2};
 use crate::ids::TileId;
+use crate::math;
 use crate::scene::{Params, SceneDescription, Warning};
 use serde::{Deserialize, Serialize};
 
@@ -90,12 +91,12 @@ impl FilmGeometry {
         }
         let mut cropped = Bounds2i::new(
             Point2i::new(
-                (xres as f32 * crop[0]).ceil() as i32,
-                (yres as f32 * crop[2]).ceil() as i32,
+                math::ceil(xres as f32 * crop[0]) as i32,
+                math::ceil(yres as f32 * crop[2]) as i32,
             ),
             Point2i::new(
-                (xres as f32 * crop[1]).ceil() as i32,
-                (yres as f32 * crop[3]).ceil() as i32,
+                math::ceil(xres as f32 * crop[1]) as i32,
+                math::ceil(yres as f32 * crop[3]) as i32,
             ),
         );
         if let Some(pb) = fp.ints("pixelbounds") {
@@ -211,12 +212,12 @@ impl FilmGeometry {
         let s = self.tile_sample_bounds(id);
         let r = self.filter_radius;
         let p0 = Point2i::new(
-            (s.min.x as f32 - 0.5 - r.x).ceil() as i32,
-            (s.min.y as f32 - 0.5 - r.y).ceil() as i32,
+            math::ceil(s.min.x as f32 - 0.5 - r.x) as i32,
+            math::ceil(s.min.y as f32 - 0.5 - r.y) as i32,
         );
         let p1 = Point2i::new(
-            (s.max.x as f32 - 0.5 + r.x).floor() as i32 + 1,
-            (s.max.y as f32 - 0.5 + r.y).floor() as i32 + 1,
+            math::floor(s.max.x as f32 - 0.5 + r.x) as i32 + 1,
+            math::floor(s.max.y as f32 - 0.5 + r.y) as i32 + 1,
         );
         Bounds2i::new(p0, p1).intersect(&self.cropped_pixel_bounds)
     }
@@ -290,12 +291,12 @@ fn full_pixels(res: Point2i) -> Bounds2i {
 fn grown(c: Bounds2i, r: Vec2) -> Bounds2i {
     Bounds2i::new(
         Point2i::new(
-            (c.min.x as f32 + 0.5 - r.x).floor() as i32,
-            (c.min.y as f32 + 0.5 - r.y).floor() as i32,
+            math::floor(c.min.x as f32 + 0.5 - r.x) as i32,
+            math::floor(c.min.y as f32 + 0.5 - r.y) as i32,
         ),
         Point2i::new(
-            (c.max.x as f32 - 0.5 + r.x).ceil() as i32,
-            (c.max.y as f32 - 0.5 + r.y).ceil() as i32,
+            math::ceil(c.max.x as f32 - 0.5 + r.x) as i32,
+            math::ceil(c.max.y as f32 - 0.5 + r.y) as i32,
         ),
     )
 }

@@ -6,6 +6,7 @@ use super::reflection::ONE_MINUS_EPSILON;
 use super::{BxDF, BxDFType};
 use crate::interaction::SurfaceInteraction;
 use farm_common::geometry::{Vec2, Vec3};
+use farm_common::math;
 use farm_common::Spectrum;
 
 /// Most lobes a BSDF holds (pbrt-v3 `MaxBxDFs`).
@@ -138,7 +139,7 @@ impl<'a> Bsdf<'a> {
         if matching == 0 {
             return None;
         }
-        let comp = ((u.x * matching as f32).floor() as usize).min(matching - 1);
+        let comp = (math::floor(u.x * matching as f32) as usize).min(matching - 1);
         let chosen = self
             .lobes()
             .iter()

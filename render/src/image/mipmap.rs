@@ -90,7 +90,7 @@ fn resample_weights(old_res: usize, new_res: usize) -> Vec<(i64, [f32; 4])> {
     (0..new_res)
         .map(|i| {
             let center = (i as f32 + 0.5) * old_res as f32 / new_res as f32;
-            let first = ((center - filter_width) + 0.5).floor() as i64;
+            let first = math::floor((center - filter_width) + 0.5) as i64;
             let mut w = [0.0f32; 4];
             for (j, wj) in w.iter_mut().enumerate() {
                 let pos = first as f32 + j as f32 + 0.5;
@@ -226,7 +226,7 @@ impl<T: Texel> MipMap<T> {
         let l = &self.pyramid[level];
         let s = st.x * l.w as f32 - 0.5;
         let t = st.y * l.h as f32 - 0.5;
-        let (s0, t0) = (s.floor(), t.floor());
+        let (s0, t0) = (math::floor(s), math::floor(t));
         let (ds, dt) = (s - s0, t - t0);
         let (s0, t0) = (s0 as i64, t0 as i64);
         self.texel(level, s0, t0) * ((1.0 - ds) * (1.0 - dt))
@@ -244,7 +244,7 @@ impl<T: Texel> MipMap<T> {
         } else if level >= (n - 1) as f32 {
             self.texel(n - 1, 0, 0)
         } else {
-            let il = level.floor();
+            let il = math::floor(level);
             let delta = level - il;
             let il = il as usize;
             self.triangle(il, st) * (1.0 - delta) + self.triangle(il + 1, st) * delta
@@ -274,7 +274,7 @@ impl<T: Texel> MipMap<T> {
             return self.triangle(0, st);
         }
         let lod = ((self.levels() as f32 - 1.0) + math::log2(minor)).max(0.0);
-        let il = lod.floor();
+        let il = math::floor(lod);
         let d = lod - il;
         let il = il as usize;
         self.ewa(il, st, dst0, dst1) * (1.0 - d) + self.ewa(il + 1, st, dst0, dst1) * d
@@ -302,10 +302,10 @@ impl<T: Texel> MipMap<T> {
         let inv_det = 1.0 / det;
         let u_sqrt = (det * c).sqrt();
         let v_sqrt = (a * det).sqrt();
-        let s0 = (st.x - 2.0 * inv_det * u_sqrt).ceil() as i64;
-        let s1 = (st.x + 2.0 * inv_det * u_sqrt).floor() as i64;
-        let t0 = (st.y - 2.0 * inv_det * v_sqrt).ceil() as i64;
-        let t1 = (st.y + 2.0 * inv_det * v_sqrt).floor() as i64;
+        let s0 = math::ceil(st.x - 2.0 * inv_det * u_sqrt) as i64;
+        let s1 = math::floor(st.x + 2.0 * inv_det * u_sqrt) as i64;
+        let t0 = math::ceil(st.y - 2.0 * inv_det * v_sqrt) as i64;
+        let t1 = math::floor(st.y + 2.0 * inv_det * v_sqrt) as i64;
         let mut sum = T::default();
         let mut sum_wts = 0.0f32;
         for it in t0..=t1 {

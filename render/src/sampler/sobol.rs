@@ -170,6 +170,7 @@ impl GlobalSequence for Sobol {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use farm_common::math;
 
     #[test]
     fn vdc_matrices_match_pbrt_tables() {
@@ -200,7 +201,7 @@ mod tests {
                 let idx = s.index_for_sample(p, n);
                 let x = sobol_sample(idx, 0) * 32.0 + b.min.x as f32;
                 let y = sobol_sample(idx, 1) * 32.0 + b.min.y as f32;
-                assert_eq!((x.floor() as i32, y.floor() as i32), (p.x, p.y), "{p:?} {n}");
+                assert_eq!((math::floor(x) as i32, math::floor(y) as i32), (p.x, p.y), "{p:?} {n}");
             }
         }
     }

@@ -4,6 +4,7 @@
 use super::mapping::{Mapping2D, Mapping3D};
 use super::{TexInput, TexValue, TextureSet};
 use crate::interaction::SurfaceInteraction;
+use farm_common::math;
 
 /// Antialiasing of the 2D checkerboard (`"string aamode"`).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -30,7 +31,7 @@ pub struct Checkerboard2D<T> {
 /// Integral of the 0/1 square wave of period 2 from 0 to `x`.
 #[inline]
 fn bump_int(x: f32) -> f32 {
-    (x / 2.0).floor() + 2.0 * (x / 2.0 - (x / 2.0).floor() - 0.5).max(0.0)
+    math::floor(x / 2.0) + 2.0 * (x / 2.0 - math::floor(x / 2.0) - 0.5).max(0.0)
 }
 
 impl<T: TexValue> Checkerboard2D<T> {
@@ -39,7 +40,7 @@ impl<T: TexValue> Checkerboard2D<T> {
         let m = self.mapping.map(si);
         let (st, dstdx, dstdy) = (m.st, m.dstdx, m.dstdy);
         let point = || {
-            if (st.x.floor() as i32).wrapping_add(st.y.floor() as i32) % 2 == 0 {
+            if (math::floor(st.x) as i32).wrapping_add(math::floor(st.y) as i32) % 2 == 0 {
                 set.eval(&self.tex1, si)
             } else {
                 set.eval(&self.tex2, si)
@@ -52,7 +53,7 @@ impl<T: TexValue> Checkerboard2D<T> {
         let dt = dstdx.y.abs().max(dstdy.y.abs());
         let (s0, s1) = (st.x - ds, st.x + ds);
         let (t0, t1) = (st.y - dt, st.y + dt);
-        if s0.floor() == s1.floor() && t0.floor() == t1.floor() {
+        if math::floor(s0) == math::floor(s1) && math::floor(t0) == math::floor(t1) {
             return point();
         }
         let sint = (bump_int(s1) - bump_int(s0)) / (2.0 * ds);
@@ -80,8 +81,9 @@ impl<T: TexValue> Checkerboard3D<T> {
     /// The value at `si`.
     pub fn evaluate(&self, set: &TextureSet, si: &SurfaceInteraction) -> T {
         let (p, _, _) = self.mapping.map(si);
-        let sum =
-            (p.x.floor() as i32).wrapping_add(p.y.floor() as i32).wrapping_add(p.z.floor() as i32);
+        let sum = (math::floor(p.x) as i32)
+            .wrapping_add(math::floor(p.y) as i32)
+            .wrapping_add(math::floor(p.z) as i32);
         if sum % 2 == 0 {
             set.eval(&self.tex1, si)
         } else {

@@ -4,6 +4,7 @@ use super::mapping::Mapping2D;
 use super::noise::noise;
 use super::{TexInput, TexValue, TextureSet};
 use crate::interaction::SurfaceInteraction;
+use farm_common::math;
 
 /// Dots of `inside` on a background of `outside`.
 #[derive(Clone, Debug, PartialEq)]
@@ -20,8 +21,8 @@ impl<T: TexValue> Dots<T> {
     /// The value at `si`.
     pub fn evaluate(&self, set: &TextureSet, si: &SurfaceInteraction) -> T {
         let st = self.mapping.map(si).st;
-        let s_cell = (st.x + 0.5).floor();
-        let t_cell = (st.y + 0.5).floor();
+        let s_cell = math::floor(st.x + 0.5);
+        let t_cell = math::floor(st.y + 0.5);
         if noise(s_cell + 0.5, t_cell + 0.5, 0.5) > 0.0 {
             let radius = 0.35;
             let max_shift = 0.5 - radius;

@@ -108,7 +108,7 @@ impl Marble {
 /// past the second segment extrapolate its cubic.
 fn marble_spline(t: f32) -> Spectrum {
     let nseg = (MARBLE.len() - 3) as f32;
-    let first = ((t * nseg).floor() as i32).min(1) as usize;
+    let first = (math::floor(t * nseg) as i32).min(1) as usize;
     let t = t * nseg - first as f32;
     let c = |i: usize| Spectrum::new(MARBLE[i][0], MARBLE[i][1], MARBLE[i][2]);
     let (c0, c1, c2, c3) = (c(first), c(first + 1), c(first + 2), c(first + 3));

@@ -49,7 +49,7 @@ fn lerp(t: f32, a: f32, b: f32) -> f32 {
 
 /// Perlin noise at (x, y, z), in about [−1, 1].
 pub fn noise(x: f32, y: f32, z: f32) -> f32 {
-    let (fx, fy, fz) = (x.floor(), y.floor(), z.floor());
+    let (fx, fy, fz) = (math::floor(x), math::floor(y), math::floor(z));
     let (dx, dy, dz) = (x - fx, y - fy, z - fz);
     let (ix, iy, iz) = ((fx as i32) & 255, (fy as i32) & 255, (fz as i32) & 255);
     let w000 = grad(ix, iy, iz, dx, dy, dz);
@@ -83,7 +83,7 @@ fn octaves(dpdx: Vec3, dpdy: Vec3, max_octaves: i32) -> f32 {
 /// Antialiased fractional Brownian motion.
 pub fn fbm(p: Vec3, dpdx: Vec3, dpdy: Vec3, omega: f32, max_octaves: i32) -> f32 {
     let n = octaves(dpdx, dpdy, max_octaves);
-    let n_int = n.floor() as i32;
+    let n_int = math::floor(n) as i32;
     let (mut sum, mut lambda, mut o) = (0.0, 1.0, 1.0);
     for _ in 0..n_int {
         let q = lambda * p;
@@ -98,7 +98,7 @@ pub fn fbm(p: Vec3, dpdx: Vec3, dpdy: Vec3, omega: f32, max_octaves: i32) -> f32
 /// Antialiased turbulence (sum of |noise|).
 pub fn turbulence(p: Vec3, dpdx: Vec3, dpdy: Vec3, omega: f32, max_octaves: i32) -> f32 {
     let n = octaves(dpdx, dpdy, max_octaves);
-    let n_int = n.floor() as i32;
+    let n_int = math::floor(n) as i32;
     let (mut sum, mut lambda, mut o) = (0.0, 1.0, 1.0);
     for _ in 0..n_int {
         let q = lambda * p;

@@ -3,6 +3,7 @@
 
 use super::mapping::Mapping2D;
 use crate::interaction::SurfaceInteraction;
+use farm_common::math;
 use farm_common::Spectrum;
 
 /// (s − ⌊s⌋, t − ⌊t⌋, 0).
@@ -16,6 +17,6 @@ impl UvTexture {
     /// The colour at `si`.
     pub fn evaluate(&self, si: &SurfaceInteraction) -> Spectrum {
         let st = self.mapping.map(si).st;
-        Spectrum::new(st.x - st.x.floor(), st.y - st.y.floor(), 0.0)
+        Spectrum::new(st.x - math::floor(st.x), st.y - math::floor(st.y), 0.0)
     }
 }
