@@ -107,8 +107,15 @@ fn scrambled_in_base(base: u64, a: u64, perm: &[u16]) -> f32 {
         inv_base_n *= inv_base;
         a = next;
     }
-    let tail = inv_base * perm[0] as f32 / (1.0 - inv_base);
-    (inv_base_n * (reversed as f32 + tail)).min(ONE_MINUS_EPSILON)
+    (inv_base_n * (reversed as f32 + scramble_tail(base, perm[0]))).min(ONE_MINUS_EPSILON)
+}
+
+/// The value of the permuted zero digits past the last digit of the index,
+/// summed to infinity: `perm[0] / (base − 1)` in pbrt-v3's float operations.
+#[inline(always)]
+fn scramble_tail(base: u64, perm0: u16) -> f32 {
+    let inv_base = 1.0f32 / base as f32;
+    inv_base * perm0 as f32 / (1.0 - inv_base)
 }
 
 /// [`scrambled_in_base`] with the base a constant.
@@ -161,6 +168,9 @@ pub const PAIR_DIMS: usize = 18;
 pub struct DigitPairs {
     offsets: [usize; PAIR_DIMS],
     table: Vec<u32>,
+    /// Each dimension's [`scramble_tail`], worked out once rather than
+    /// divided out per sample.
+    tails: [f32; PAIR_DIMS],
 }
 
 impl DigitPairs {
@@ -168,21 +178,23 @@ impl DigitPairs {
     /// [`compute_radical_inverse_permutations`] returns them).
     pub fn new(perms: &[u16]) -> Self {
         let mut offsets = [0; PAIR_DIMS];
+        let mut tails = [0.0; PAIR_DIMS];
         let mut table = Vec::new();
-        for (dim, offset) in offsets.iter_mut().enumerate().skip(2) {
+        for dim in 2..PAIR_DIMS {
             let b = PRIMES[dim] as usize;
             let perm = &perms[PRIME_SUMS[dim] as usize..][..b];
-            *offset = table.len();
+            offsets[dim] = table.len();
+            tails[dim] = scramble_tail(b as u64, perm[0]);
             table.extend((0..b * b).map(|d| perm[d % b] as u32 * b as u32 + perm[d / b] as u32));
         }
-        DigitPairs { offsets, table }
+        DigitPairs { offsets, table, tails }
     }
 
     /// [`scrambled_radical_inverse`] for a dimension `2 <= dim < PAIR_DIMS`.
     #[inline]
     pub fn scrambled_radical_inverse(&self, dim: usize, a: u64, perm: &[u16]) -> f32 {
-        let pairs = &self.table[self.offsets[dim]..];
-        by_const_base!(dim, pairs_in(a, pairs, perm), pairs_in_base(PRIMES[dim] as u64, a, pairs, perm);
+        let (pairs, tail) = (&self.table[self.offsets[dim]..], self.tails[dim]);
+        by_const_base!(dim, pairs_in(a, pairs, perm, tail), pairs_in_base(PRIMES[dim] as u64, a, pairs, perm, tail);
             2 => 5, 3 => 7, 4 => 11, 5 => 13, 6 => 17, 7 => 19, 8 => 23, 9 => 29, 10 => 31,
             11 => 37, 12 => 41, 13 => 43, 14 => 47, 15 => 53, 16 => 59, 17 => 61,
         )
@@ -192,7 +204,7 @@ impl DigitPairs {
 /// [`DigitPairs::scrambled_radical_inverse`] in base `base`, whose pair
 /// table is `pairs`.
 #[inline(always)]
-fn pairs_in_base(base: u64, a: u64, pairs: &[u32], perm: &[u16]) -> f32 {
+fn pairs_in_base(base: u64, a: u64, pairs: &[u32], perm: &[u16], tail: f32) -> f32 {
     let base2 = base * base;
     let (pairs, perm) = (&pairs[..base2 as usize], &perm[..base as usize]);
     let inv_base = 1.0f32 / base as f32;
@@ -209,14 +221,13 @@ fn pairs_in_base(base: u64, a: u64, pairs: &[u32], perm: &[u16]) -> f32 {
         reversed = reversed.wrapping_mul(base).wrapping_add(perm[a as usize] as u64);
         inv_base_n *= inv_base;
     }
-    let tail = inv_base * perm[0] as f32 / (1.0 - inv_base);
     (inv_base_n * (reversed as f32 + tail)).min(ONE_MINUS_EPSILON)
 }
 
 /// [`pairs_in_base`] with the base a constant.
 #[inline(always)]
-fn pairs_in<const B: u64>(a: u64, pairs: &[u32], perm: &[u16]) -> f32 {
-    pairs_in_base(B, a, pairs, perm)
+fn pairs_in<const B: u64>(a: u64, pairs: &[u32], perm: &[u16], tail: f32) -> f32 {
+    pairs_in_base(B, a, pairs, perm, tail)
 }
 
 /// Random digit permutations for the first [`PRIME_TABLE_SIZE`] prime
