@@ -14,7 +14,7 @@ use std::process::Command;
 use std::time::Instant;
 
 mod pbrt;
-pub use pbrt::measure_pbrt;
+use pbrt::measure_pbrt;
 
 /// pbrt-v3's own measurements of a scene (reference README).
 #[derive(Clone, Debug, Default, PartialEq)]

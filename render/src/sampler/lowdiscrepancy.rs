@@ -58,8 +58,9 @@ const fn prime_sums() -> [u32; PRIME_TABLE_SIZE] {
 pub fn radical_inverse(base_index: usize, a: u64) -> f32 {
     match base_index {
         0 => (a.reverse_bits() as f64 * f64::from_bits(0x3bf0_0000_0000_0000)) as f32,
-        // Halton's second dimension: a constant base divides by multiplying.
-        1 => radical_inverse_in::<3>(a),
+        // Halton's second dimension: inlined with a constant base, the
+        // compiler divides by multiplying (as pbrt-v3's switch over bases).
+        1 => radical_inverse_base(3, a),
         _ => radical_inverse_base(PRIMES[base_index.min(RADICAL_INVERSE_BASES - 1)] as u64, a),
     }
 }
@@ -77,14 +78,6 @@ fn radical_inverse_base(base: u64, a: u64) -> f32 {
         a = next;
     }
     (reversed as f32 * inv_base_n).min(ONE_MINUS_EPSILON)
-}
-
-/// [`radical_inverse_base`] with the base a constant, as pbrt-v3's switch
-/// over bases has it: the compiler divides by multiplying, and the
-/// floating-point operations are the same, so are the bits.
-#[inline(always)]
-fn radical_inverse_in<const B: u64>(a: u64) -> f32 {
-    radical_inverse_base(B, a)
 }
 
 /// The radical inverse of `a` with each digit mapped through `perm`
@@ -118,23 +111,23 @@ fn scramble_tail(base: u64, perm0: u16) -> f32 {
     inv_base * perm0 as f32 / (1.0 - inv_base)
 }
 
-/// [`scrambled_in_base`] with the base a constant.
-#[inline(always)]
-fn scrambled_in<const B: u64>(a: u64, perm: &[u16]) -> f32 {
-    scrambled_in_base(B, a, perm)
-}
-
 /// Dimensions below this have their base written out as a constant in
 /// [`scrambled_radical_inverse_fast`]: Whitted's Halton and Sobol'-free
 /// renders with up to about thirty lights stay within them.
 pub const CONST_BASE_DIMS: usize = 64;
 
-/// Calls `$f::<BASE>($args)` for dimension `$dim`'s prime base, written out
-/// for each dimension listed; `$other` otherwise.
+/// `$body` with `$base` bound to dimension `$dim`'s prime base, written out
+/// as a literal for each dimension listed (`$other` otherwise). The body's
+/// functions are inlined, so each arm divides by its constant base by
+/// multiplying, as pbrt-v3's switch over bases does; the floating-point
+/// operations are unchanged, so are the bits.
 macro_rules! by_const_base {
-    ($dim:expr, $f:ident $args:tt, $other:expr; $($d:literal => $b:literal),* $(,)?) => {
+    ($dim:expr, |$base:ident| $body:expr, $other:expr; $($d:literal => $b:literal),* $(,)?) => {
         match $dim {
-            $($d => $f::<$b> $args,)*
+            $($d => {
+                let $base: u64 = $b;
+                $body
+            })*
             _ => $other,
         }
     };
@@ -144,7 +137,7 @@ macro_rules! by_const_base {
 /// with a constant base below [`CONST_BASE_DIMS`] (the same bits).
 #[inline]
 pub fn scrambled_radical_inverse_fast(dim: usize, a: u64, perm: &[u16]) -> f32 {
-    by_const_base!(dim, scrambled_in(a, perm), scrambled_radical_inverse(dim, a, perm);
+    by_const_base!(dim, |b| scrambled_in_base(b, a, perm), scrambled_radical_inverse(dim, a, perm);
         18 => 67, 19 => 71, 20 => 73, 21 => 79, 22 => 83, 23 => 89, 24 => 97, 25 => 101,
         26 => 103, 27 => 107, 28 => 109, 29 => 113, 30 => 127, 31 => 131, 32 => 137,
         33 => 139, 34 => 149, 35 => 151, 36 => 157, 37 => 163, 38 => 167, 39 => 173,
@@ -194,7 +187,7 @@ impl DigitPairs {
     #[inline]
     pub fn scrambled_radical_inverse(&self, dim: usize, a: u64, perm: &[u16]) -> f32 {
         let (pairs, tail) = (&self.table[self.offsets[dim]..], self.tails[dim]);
-        by_const_base!(dim, pairs_in(a, pairs, perm, tail), pairs_in_base(PRIMES[dim] as u64, a, pairs, perm, tail);
+        by_const_base!(dim, |b| pairs_in_base(b, a, pairs, perm, tail), pairs_in_base(PRIMES[dim] as u64, a, pairs, perm, tail);
             2 => 5, 3 => 7, 4 => 11, 5 => 13, 6 => 17, 7 => 19, 8 => 23, 9 => 29, 10 => 31,
             11 => 37, 12 => 41, 13 => 43, 14 => 47, 15 => 53, 16 => 59, 17 => 61,
         )
@@ -222,12 +215,6 @@ fn pairs_in_base(base: u64, a: u64, pairs: &[u32], perm: &[u16], tail: f32) -> f
         inv_base_n *= inv_base;
     }
     (inv_base_n * (reversed as f32 + tail)).min(ONE_MINUS_EPSILON)
-}
-
-/// [`pairs_in_base`] with the base a constant.
-#[inline(always)]
-fn pairs_in<const B: u64>(a: u64, pairs: &[u32], perm: &[u16], tail: f32) -> f32 {
-    pairs_in_base(B, a, pairs, perm, tail)
 }
 
 /// Random digit permutations for the first [`PRIME_TABLE_SIZE`] prime
