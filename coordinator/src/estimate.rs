@@ -78,9 +78,15 @@ pub(crate) fn half_weights(p: &Pixel) -> Option<(f64, f64, f64)> {
     (w != 0.0 && w_a != 0.0 && w_b != 0.0).then_some((w, w_a, w_b))
 }
 
+/// A pixel's error as [`levelled_errors`] gives it, or `None` where it is
+/// not counted (NaN).
+pub(crate) fn counted_error(e: f64) -> Option<f64> {
+    (!e.is_nan()).then_some(e)
+}
+
 /// The sum and count of the pixels' errors that are counted, in order.
-pub(crate) fn sum_counted(errors: &[Option<f64>]) -> (f64, usize) {
-    errors.iter().flatten().fold((0.0, 0), |(s, k), e| (s + e, k + 1))
+pub(crate) fn sum_counted(errors: &[f64]) -> (f64, usize) {
+    errors.iter().filter_map(|&e| counted_error(e)).fold((0.0, 0), |(s, k), e| (s + e, k + 1))
 }
 
 /// A pixel's value per channel, as [`pixel_error_against`] takes it, or
@@ -95,15 +101,16 @@ fn sampled_value(p: &Pixel, scale: f32) -> Option<[f64; 3]> {
 /// of its value and the mean value of the 3 × 3 pixels around it (itself
 /// included; pixels without samples in both halves left out), as the
 /// module documentation says, or to its value alone where `own(i)` (a
-/// firefly, which would set its neighbourhood's level itself). `None`
-/// where a half has no samples.
+/// firefly, which would set its neighbourhood's level itself). NaN where a
+/// half has no samples, a pixel's error being finite otherwise (a film's
+/// sums are): 8 bytes a pixel, where `Option<f64>` takes 16.
 pub fn levelled_errors(
     (width, height): (usize, usize),
     pixel: impl Fn(usize) -> Pixel,
     scale: f32,
     halves: HalfImages,
     own: impl Fn(usize) -> bool,
-) -> Vec<Option<f64>> {
+) -> Vec<f64> {
     // A row's values with a count of 1 (zeros where a half has no
     // samples), and their sums over 3 pixels across; the 3 × 3 sums add
     // three rows of those, so only three rows are held at a time.
@@ -132,11 +139,11 @@ pub fn levelled_errors(
             let i = y * width + x;
             let value = values[x];
             if value[3] == 0.0 {
-                errors.push(None);
+                errors.push(f64::NAN);
                 continue;
             }
             if own(i) {
-                errors.push(pixel_error(&pixel(i), scale, halves));
+                errors.push(pixel_error(&pixel(i), scale, halves).unwrap_or(f64::NAN));
                 continue;
             }
             let mut sum = across[x];
@@ -144,7 +151,8 @@ pub fn levelled_errors(
                 add(&mut sum, &other[x]);
             }
             let level = std::array::from_fn(|c| value[c].min(sum[c] / sum[3]));
-            errors.push(pixel_error_against(&pixel(i), scale, halves, Against::Level(level)));
+            let e = pixel_error_against(&pixel(i), scale, halves, Against::Level(level));
+            errors.push(e.unwrap_or(f64::NAN));
         }
         above = here;
         here = below;
@@ -232,20 +240,17 @@ impl ErrorEstimate {
     ) -> Option<Self> {
         let size = (bounds.width().max(0) as usize, bounds.height().max(0) as usize);
         let errors = levelled_errors(size, |i| pixels[i], scale, halves, |_| false);
-        Self::from_values(bounds, errors.into_iter())
+        Self::from_values(bounds, &errors)
     }
 
-    /// The estimate from each pixel's error (`None`: not counted),
-    /// row-major over `bounds` (summed in that order).
-    pub fn from_values(
-        bounds: Bounds2i,
-        values: impl ExactSizeIterator<Item = Option<f64>>,
-    ) -> Option<Self> {
+    /// The estimate from each pixel's error (NaN: not counted), row-major
+    /// over `bounds` (summed in that order).
+    pub fn from_values(bounds: Bounds2i, values: &[f64]) -> Option<Self> {
         let (width, height) = (bounds.width().max(0) as usize, bounds.height().max(0) as usize);
         let mut per_pixel = Vec::with_capacity(values.len());
         let (mut sum, mut counted) = (0.0f64, 0usize);
-        for v in values {
-            let Some(e) = v else {
+        for &v in values {
+            let Some(e) = counted_error(v) else {
                 per_pixel.push(0.0);
                 continue;
             };

@@ -40,7 +40,7 @@
 //! [`MIN_PIXELS`] fireflies are counted as edge pixels: a lone one is
 //! usually the corner of a light.)
 
-use super::{half_weights, pixel_error_against, sum_counted, Against, EPSILON};
+use super::{counted_error, half_weights, pixel_error_against, sum_counted, Against, EPSILON};
 use farm_common::film::{HalfImages, Pixel};
 use std::collections::btree_map::{BTreeMap, Entry};
 
@@ -91,6 +91,12 @@ fn levels(p: &Pixel, scale: f64) -> Option<(f64, f64, f64)> {
     Some((full, a.min(b), a.max(b)))
 }
 
+/// A pixel's value (the mean of its channels), or `None` where a half has
+/// no samples.
+fn value(p: &Pixel, scale: f32) -> Option<f64> {
+    levels(p, f64::from(scale)).map(|l| l.0)
+}
+
 /// How far each way along an edge the run of pixels whose mean is an
 /// edge pixel's level reaches.
 const RUN: usize = 2;
@@ -98,11 +104,11 @@ const RUN: usize = 2;
 /// The pixels of a film whose halves are too far apart for their
 /// difference to measure their error: the candidates for fireflies and
 /// edge pixels, before [`find`] weighs them.
+///
+/// It holds no per-pixel buffer: a pixel's value is worked out again from
+/// its sums where it is needed, since only the suspects' neighbours need it.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Suspects {
-    /// Each pixel's value (the mean of its channels), NaN where a half has
-    /// no samples.
-    values: Vec<f64>,
     /// The pixels that pass the firefly test (row-major order).
     pub fireflies: Vec<usize>,
     /// The others whose halves are as far apart (row-major order).
@@ -128,9 +134,7 @@ pub fn suspects(
     spp: u32,
 ) -> Suspects {
     let n = width * height;
-    let values: Vec<f64> =
-        (0..n).map(|i| levels(&pixel(i), f64::from(scale)).map_or(f64::NAN, |l| l.0)).collect();
-    let value = |j: usize| Some(values[j]).filter(|v| !v.is_nan()).unwrap_or(0.0);
+    let value = |j: usize| value(&pixel(j), scale).unwrap_or(0.0);
     let (mut fireflies, mut edges) = (Vec::new(), Vec::new());
     let mut around = Vec::with_capacity(8);
     for i in 0..n {
@@ -160,12 +164,12 @@ pub fn suspects(
             edges.push(i);
         }
     }
-    Suspects { values, fireflies, edges }
+    Suspects { fireflies, edges }
 }
 
 /// What the [`Suspects`] of a `width` × `height` film whose pixels
 /// (row-major) are `pixel(i)`, with `halves`, do to its estimate, which
-/// counts `errors[i]` for pixel `i` (`None`: not counted); `None` when
+/// counts `errors[i]` for pixel `i` (NaN: not counted); `None` when
 /// counting their error does not make the estimate more than [`MATERIAL`]
 /// times what it is.
 pub fn find(
@@ -173,11 +177,11 @@ pub fn find(
     pixel: impl Fn(usize) -> Pixel,
     scale: f32,
     halves: HalfImages,
-    Suspects { values, mut fireflies, mut edges }: Suspects,
-    errors: &[Option<f64>],
+    Suspects { mut fireflies, mut edges }: Suspects,
+    errors: &[f64],
 ) -> Option<Fireflies> {
     let (sum, counted) = sum_counted(errors);
-    let sampled = |j: usize| Some(values[j]).filter(|v| !v.is_nan());
+    let sampled = |j: usize| value(&pixel(j), scale);
     let value = |j: usize| sampled(j).unwrap_or(0.0);
     if fireflies.len() < MIN_PIXELS {
         edges.append(&mut fireflies);
@@ -189,7 +193,7 @@ pub fn find(
     let mut count = |i: usize, e: f64| {
         let entry = match counted_as.entry(i) {
             Entry::Occupied(o) => Some(o.into_mut()),
-            Entry::Vacant(v) => errors[i].map(|plain| v.insert((plain, plain))),
+            Entry::Vacant(v) => counted_error(errors[i]).map(|plain| v.insert((plain, plain))),
         };
         if let Some((_, c)) = entry {
             *c = c.max(e);
@@ -297,7 +301,7 @@ mod tests {
     const SIZE: (usize, usize) = (40, 30);
 
     /// The suspects of `t` at `spp`, and each pixel's error in its estimate.
-    fn errors(t: &FilmTile, spp: u32) -> (Suspects, Vec<Option<f64>>) {
+    fn errors(t: &FilmTile, spp: u32) -> (Suspects, Vec<f64>) {
         let s = suspects(SIZE, |i| t.pixels[i], 1.0, spp);
         let e = levelled_errors(
             SIZE,
@@ -401,7 +405,7 @@ mod tests {
         let f = run(&t, 8).expect("alone, they are most of the error");
         // The rest of the image as noisy as the fireflies at their worst.
         let (s, e) = errors(&t, 8);
-        let noisy: Vec<Option<f64>> = e.iter().map(|e| e.map(|e| e + f.rel_mse)).collect();
+        let noisy: Vec<f64> = e.iter().map(|e| e + f.rel_mse).collect();
         assert!(find(SIZE, |i| t.pixels[i], 1.0, HalfImages::Independent, s, &noisy).is_none());
     }
 

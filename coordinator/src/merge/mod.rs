@@ -249,9 +249,14 @@ impl Film {
         let pixel = |i| self.sums.pixel(i);
         let suspects = suspects(size, pixel, scale, spp);
         let errors = levelled_errors(size, pixel, scale, halves, |i| suspects.is_firefly(i));
-        let mut estimate = ErrorEstimate::from_values(b, errors.iter().copied())?;
+        let mut estimate = ErrorEstimate::from_values(b, &errors)?;
         estimate.fireflies = find_fireflies(size, pixel, scale, halves, suspects, &errors);
         let (sum, counted) = sum_counted(&errors);
+        // The per-pixel buffers go before the map is copied, so no more than
+        // two maps (4 bytes a pixel each) and the errors (8) are alive at
+        // once beside the film.
+        drop(errors);
+        self.running.map = Vec::new();
         self.running = Running { map: estimate.per_pixel.clone(), sum, counted, upto: self.next };
         // Its map is the running one's until the next tile.
         let kept = ErrorEstimate { per_pixel: Vec::new(), ..estimate.clone() };
@@ -406,6 +411,13 @@ impl Film {
                 }
             }
         }
+    }
+
+    /// [`Film::image`] of a film that is done with: the running estimate's
+    /// map (4 bytes a pixel) is freed before the image's 12 are allocated.
+    pub fn into_image(mut self) -> RgbImage {
+        self.running.map = Vec::new();
+        self.image()
     }
 
     /// The image: weighted sums divided by weights, clamped at zero, times

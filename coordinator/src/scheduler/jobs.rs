@@ -338,12 +338,13 @@ impl Scheduler {
         let Some(mut film) = j.film.take() else { return };
         let render_seconds = j.started.map(|s| now.duration_since(s).as_secs_f64()).unwrap_or(0.0);
         let spp = j.pass_ends.last().map_or(j.spec.spp, |p| p.spp);
-        // The estimate first: its per-pixel buffers (about 32 bytes a pixel)
-        // are freed before the image's 12 are allocated, so they are never
-        // alive together beside the film.
+        // The estimate first: its working buffers (12 bytes a pixel) are
+        // freed before the image's 12 are allocated, and the film's copy of
+        // its map (4) with them, so they are never alive together beside
+        // the film.
         let error = film.error_estimate(spp);
         let finished = std::sync::Arc::new(FinishedJob {
-            image: film.image(),
+            image: film.into_image(),
             error,
             spp,
             render_seconds,
