@@ -73,9 +73,8 @@ pub struct JobSpec {
     pub passes: Option<PassPlan>,
     /// Whether its tiles render on all of a worker's threads (a stateless
     /// sampler's, `Renderer::render_tile_parallel`), so a worker may hold
-    /// fewer of them ([`super::SchedulerConfig::parallel_in_flight`]). Not
-    /// journalled: a job restored after a restart is given a tile per
-    /// thread's slots.
+    /// fewer of them ([`super::SchedulerConfig::parallel_in_flight`]).
+    /// Journalled in a table of its own, as `shot`.
     #[serde(skip)]
     pub parallel_tiles: bool,
 }

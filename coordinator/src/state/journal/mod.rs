@@ -56,6 +56,7 @@ CREATE TABLE IF NOT EXISTS frames (
     job INTEGER PRIMARY KEY, shot INTEGER NOT NULL, frame INTEGER NOT NULL, frames INTEGER NOT NULL
 );
 CREATE TABLE IF NOT EXISTS passes (job INTEGER PRIMARY KEY, plan BLOB NOT NULL);
+CREATE TABLE IF NOT EXISTS parallel_tiles (job INTEGER PRIMARY KEY);
 CREATE TABLE IF NOT EXISTS blobs (
     hash BLOB PRIMARY KEY, size INTEGER NOT NULL, owner TEXT NOT NULL, stored_at INTEGER NOT NULL
 ) WITHOUT ROWID;
@@ -335,6 +336,12 @@ fn apply(
                     params![id as i64, postcard::to_stdvec(p).unwrap_or_default()],
                 )?;
             }
+            if spec.parallel_tiles {
+                tx.execute(
+                    "INSERT OR IGNORE INTO parallel_tiles (job) VALUES (?1)",
+                    params![id as i64],
+                )?;
+            }
             if let Some(f) = spec.shot {
                 tx.execute(
                     "INSERT OR REPLACE INTO frames (job, shot, frame, frames) VALUES (?1, ?2, ?3, ?4)",
@@ -375,7 +382,15 @@ fn apply(
         Command::Purge { jobs, unreferenced_before, reply } => {
             for job in jobs {
                 let job = job as i64;
-                for table in ["tiles", "attempts", "images", "job_blobs", "frames", "passes"] {
+                for table in [
+                    "tiles",
+                    "attempts",
+                    "images",
+                    "job_blobs",
+                    "frames",
+                    "passes",
+                    "parallel_tiles",
+                ] {
                     tx.execute(&format!("DELETE FROM {table} WHERE job = ?1"), params![job])?;
                 }
                 tx.execute("DELETE FROM jobs WHERE id = ?1", params![job])?;
@@ -489,9 +504,9 @@ mod tests {
         assert_eq!(purge(&j, vec![]).await, Vec::<Hash>::new());
     }
 
-    /// A frame's place in its shot and a job's passes are journalled
-    /// beside its job, come back when the coordinator restarts, and go
-    /// when the job is purged.
+    /// A frame's place in its shot, a job's passes and whether its tiles
+    /// render on all threads are journalled beside its job, come back when
+    /// the coordinator restarts, and go when the job is purged.
     #[tokio::test]
     async fn a_frames_shot_and_a_jobs_passes_survive_a_restart() {
         let dir = std::env::temp_dir().join(format!("farm-journal-shot-{}", std::process::id()));
@@ -503,7 +518,8 @@ mod tests {
             let (j, _) = Journal::open(Some(&db)).unwrap();
             for (id, shot) in [(7, Some(frame)), (8, None)] {
                 let passes = (id == 8).then(|| plan.clone());
-                let s = JobSpec { shot, passes, ..spec(vec![[1u8; 32]]) };
+                let parallel_tiles = id == 7;
+                let s = JobSpec { shot, passes, parallel_tiles, ..spec(vec![[1u8; 32]]) };
                 j.send(Command::Submitted { id, detach: false, blobs: vec![], spec: Box::new(s) });
             }
             j.flush().await;
@@ -513,6 +529,8 @@ mod tests {
         assert_eq!(shots, [(7, Some(frame)), (8, None)]);
         let passes: Vec<_> = restored.jobs.iter().map(|s| s.spec.passes.clone()).collect();
         assert_eq!(passes, [None, Some(plan)]);
+        let parallel: Vec<_> = restored.jobs.iter().map(|s| s.spec.parallel_tiles).collect();
+        assert_eq!(parallel, [true, false]);
         purge(&j, vec![7, 8]).await;
         drop(j);
         let (_, restored) = Journal::open(Some(&db)).unwrap();
@@ -522,6 +540,9 @@ mod tests {
         assert_eq!(rows, 0, "the purged frame's row is gone");
         let rows: i64 = conn.query_row("SELECT count(*) FROM passes", [], |r| r.get(0)).unwrap();
         assert_eq!(rows, 0, "the purged job's passes are gone");
+        let rows: i64 =
+            conn.query_row("SELECT count(*) FROM parallel_tiles", [], |r| r.get(0)).unwrap();
+        assert_eq!(rows, 0, "the purged job's row is gone");
         std::fs::remove_dir_all(&dir).ok();
     }
 

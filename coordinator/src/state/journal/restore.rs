@@ -51,6 +51,8 @@ pub(super) fn restore(conn: &Connection) -> rusqlite::Result<Restored> {
             };
             spec.passes = Some(plan);
         }
+        let mut q = conn.prepare_cached("SELECT 1 FROM parallel_tiles WHERE job = ?1")?;
+        spec.parallel_tiles = q.exists(params![id])?;
         let ending = match state.as_str() {
             "done" => Some(Ending::Done),
             "failed" => Some(Ending::Failed(reason.unwrap_or_default())),
