@@ -122,7 +122,10 @@ impl<'a> Bsdf<'a> {
         f
     }
 
-    /// The BSDF's value for a pair of world directions.
+    /// The BSDF's value for a pair of world directions. Always inlined: out
+    /// of line, its directions arrive through memory, stored as three
+    /// floats and loaded wider, which stalls the load.
+    #[inline(always)]
     pub fn f(&self, wo_world: Vec3, wi_world: Vec3, flags: BxDFType) -> Spectrum {
         let wi = self.world_to_local(wi_world);
         let wo = self.world_to_local(wo_world);

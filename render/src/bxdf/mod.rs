@@ -202,21 +202,67 @@ impl BxDF<'_> {
     }
 
     /// The lobe's value for the pair of directions (zero for delta lobes).
+    ///
+    /// The diffuse and specular lobes are inlined; the others are called.
+    /// Inlined into a BSDF's loop over its lobes, every lobe's set-up from
+    /// `wo` and `wi` (Schlick weights, sines, square roots) would be
+    /// hoisted out of the loop and paid for a plain Lambertian surface too.
     #[inline]
     pub fn f(&self, wo: Vec3, wi: Vec3) -> Spectrum {
+        match self {
+            BxDF::LambertianReflection(b) => b.f(wo, wi),
+            BxDF::LambertianTransmission(b) => b.f(wo, wi),
+            BxDF::SpecularReflection(b) => b.f(wo, wi),
+            BxDF::SpecularTransmission(b) => b.f(wo, wi),
+            BxDF::FresnelSpecular(b) => b.f(wo, wi),
+            _ => self.f_called(wo, wi),
+        }
+    }
+
+    /// [`Self::f`] out of line.
+    #[inline(never)]
+    fn f_called(&self, wo: Vec3, wi: Vec3) -> Spectrum {
         dispatch!(self, b => b.f(wo, wi))
     }
 
-    /// Samples an incident direction for `wo`; `None` when the density is zero.
+    /// Samples an incident direction for `wo`; `None` when the density is
+    /// zero. Inlined for the diffuse and specular lobes only, as [`Self::f`].
     #[inline]
     pub fn sample_f(&self, wo: Vec3, u: Vec2) -> Option<BxDFSample> {
         let ty = self.bxdf_type();
+        match self {
+            BxDF::LambertianReflection(b) => b.sample_f(wo, u, ty),
+            BxDF::LambertianTransmission(b) => b.sample_f(wo, u, ty),
+            BxDF::SpecularReflection(b) => b.sample_f(wo, u, ty),
+            BxDF::SpecularTransmission(b) => b.sample_f(wo, u, ty),
+            BxDF::FresnelSpecular(b) => b.sample_f(wo, u, ty),
+            _ => self.sample_f_called(wo, u, ty),
+        }
+    }
+
+    /// [`Self::sample_f`] out of line.
+    #[inline(never)]
+    fn sample_f_called(&self, wo: Vec3, u: Vec2, ty: BxDFType) -> Option<BxDFSample> {
         dispatch!(self, b => b.sample_f(wo, u, ty))
     }
 
-    /// Density of [`Self::sample_f`] choosing `wi`.
+    /// Density of [`Self::sample_f`] choosing `wi`. Inlined for the diffuse
+    /// and specular lobes only, as [`Self::f`].
     #[inline]
     pub fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
+        match self {
+            BxDF::LambertianReflection(b) => b.pdf(wo, wi),
+            BxDF::LambertianTransmission(b) => b.pdf(wo, wi),
+            BxDF::SpecularReflection(b) => b.pdf(wo, wi),
+            BxDF::SpecularTransmission(b) => b.pdf(wo, wi),
+            BxDF::FresnelSpecular(b) => b.pdf(wo, wi),
+            _ => self.pdf_called(wo, wi),
+        }
+    }
+
+    /// [`Self::pdf`] out of line.
+    #[inline(never)]
+    fn pdf_called(&self, wo: Vec3, wi: Vec3) -> f32 {
         dispatch!(self, b => b.pdf(wo, wi))
     }
 }
