@@ -50,6 +50,12 @@ impl Rng {
 
     /// A uniform integer in `[0, bound)` without modulo bias.
     pub fn uniform_u32_below(&mut self, bound: u32) -> u32 {
+        if bound == 1 {
+            // What the loop below comes to: one draw, accepted, and 0
+            // (a shuffle's last step, and all of a shuffle of one).
+            self.uniform_u32();
+            return 0;
+        }
         let threshold = rem(bound.wrapping_neg(), bound);
         loop {
             let r = self.uniform_u32();
@@ -164,5 +170,11 @@ mod tests {
             seen[r.uniform_u32_below(7) as usize] = true;
         }
         assert!(seen.iter().all(|&s| s));
+        // Below 1: one draw, as the general loop takes it.
+        let mut one = Rng::new(9);
+        let mut plain = one.clone();
+        assert_eq!(one.uniform_u32_below(1), 0);
+        plain.uniform_u32();
+        assert_eq!(one, plain);
     }
 }
