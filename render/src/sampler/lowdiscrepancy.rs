@@ -309,12 +309,41 @@ pub fn gray_code_sample_2d(c0: &[u32], c1: &[u32], n: usize, scramble: [u32; 2],
 
 /// Shuffles `count` blocks of `n_dims` consecutive values (pbrt-v3 `Shuffle`).
 pub fn shuffle<T>(samp: &mut [T], count: usize, n_dims: usize, rng: &mut Rng) {
+    if n_dims == 1 {
+        for i in 0..count {
+            let other = i + rng.uniform_u32_below((count - i) as u32) as usize;
+            samp.swap(i, other);
+        }
+        return;
+    }
     for i in 0..count {
         let other = i + rng.uniform_u32_below((count - i) as u32) as usize;
         for j in 0..n_dims {
             samp.swap(n_dims * i + j, n_dims * other + j);
         }
     }
+}
+
+/// Shuffles each pixel sample's `n_per_sample` values among themselves,
+/// then the pixel samples' blocks (pbrt-v3's two steps in `VanDerCorput`
+/// and `Sobol2D`). A block of one value stays as it is, at the cost of one
+/// draw.
+fn shuffle_within_and_across<T>(
+    samples: &mut [T],
+    n_per_sample: usize,
+    n_pixel_samples: usize,
+    rng: &mut Rng,
+) {
+    if n_per_sample == 1 {
+        for _ in 0..n_pixel_samples {
+            rng.uniform_u32();
+        }
+    } else {
+        for i in 0..n_pixel_samples {
+            shuffle(&mut samples[i * n_per_sample..], n_per_sample, 1, rng);
+        }
+    }
+    shuffle(samples, n_pixel_samples, n_per_sample, rng);
 }
 
 /// The van der Corput generator matrix (identity, bit-reversed).
@@ -351,10 +380,7 @@ pub fn van_der_corput(
 ) {
     let scramble = rng.uniform_u32();
     gray_code_sample_1d(&C_VAN_DER_CORPUT, n_per_sample * n_pixel_samples, scramble, samples);
-    for i in 0..n_pixel_samples {
-        shuffle(&mut samples[i * n_per_sample..], n_per_sample, 1, rng);
-    }
-    shuffle(samples, n_pixel_samples, n_per_sample, rng);
+    shuffle_within_and_across(samples, n_per_sample, n_pixel_samples, rng);
 }
 
 /// Scrambled (0,2)-sequence samples, shuffled like [`van_der_corput`]
@@ -363,10 +389,7 @@ pub fn sobol_2d(n_per_sample: usize, n_pixel_samples: usize, samples: &mut [Vec2
     let scramble = [rng.uniform_u32(), rng.uniform_u32()];
     let n = n_per_sample * n_pixel_samples;
     gray_code_sample_2d(&C_VAN_DER_CORPUT, &C_SOBOL_1, n, scramble, samples);
-    for i in 0..n_pixel_samples {
-        shuffle(&mut samples[i * n_per_sample..], n_per_sample, 1, rng);
-    }
-    shuffle(samples, n_pixel_samples, n_per_sample, rng);
+    shuffle_within_and_across(samples, n_per_sample, n_pixel_samples, rng);
 }
 
 #[cfg(test)]
