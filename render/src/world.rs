@@ -301,11 +301,7 @@ fn add_shape(
         Some((l_emit, two_sided, lights)) => {
             for shape in shapes {
                 let id = lights.len() as u32;
-                lights.push(Light::Area(DiffuseAreaLight {
-                    l_emit,
-                    shape: shape.clone(),
-                    two_sided,
-                }));
+                lights.push(Light::Area(DiffuseAreaLight::new(l_emit, shape.clone(), two_sided)));
                 prims.push(Primitive { shape, material, area_light: Some(id).into() });
             }
         }

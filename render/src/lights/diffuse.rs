@@ -16,9 +16,17 @@ pub struct DiffuseAreaLight {
     pub shape: Shape,
     /// `twosided`: emit from the back too.
     pub two_sided: bool,
+    /// 1 / the shape's area, worked out once (pbrt-v3 keeps `area` too).
+    pub inv_area: f32,
 }
 
 impl DiffuseAreaLight {
+    /// The light of `shape` emitting `l_emit`.
+    pub fn new(l_emit: Spectrum, shape: Shape, two_sided: bool) -> Self {
+        let inv_area = 1.0 / shape.area();
+        DiffuseAreaLight { l_emit, shape, two_sided, inv_area }
+    }
+
     /// Radiance leaving point `it` of the shape in direction `w`.
     #[inline]
     pub fn l(&self, n: Vec3, w: Vec3) -> Spectrum {
@@ -32,7 +40,7 @@ impl DiffuseAreaLight {
     /// Samples a point on the shape as seen from `r`.
     #[inline]
     pub fn sample_li(&self, r: &Interaction, u: Vec2) -> Option<LightSample> {
-        let (p_shape, pdf) = self.shape.sample_from(r, u)?;
+        let (p_shape, pdf) = self.shape.sample_from_light(r, u, self.inv_area)?;
         let d = p_shape.p - r.p;
         if pdf == 0.0 || d.length_squared() == 0.0 {
             return None;

@@ -403,6 +403,12 @@ impl Triangle<'_> {
     /// A uniform point and its area density.
     #[inline(always)]
     pub fn sample_area(&self, u: Vec2) -> (Interaction, f32) {
+        (self.sample_point(u), 1.0 / self.area())
+    }
+
+    /// A uniform point, with its normal and error bound.
+    #[inline(always)]
+    pub fn sample_point(&self, u: Vec2) -> Interaction {
         let b = uniform_sample_triangle(u);
         let (p0, p1, p2) = self.points();
         let b2 = 1.0 - b.x - b.y;
@@ -418,7 +424,7 @@ impl Triangle<'_> {
             n = -n;
         }
         let abs_sum = (b.x * p0).abs() + (b.y * p1).abs() + (b2 * p2).abs();
-        (Interaction { p, p_error: gamma(6) * abs_sum, n, time: 0.0 }, 1.0 / self.area())
+        Interaction { p, p_error: gamma(6) * abs_sum, n, time: 0.0 }
     }
 }
 
