@@ -66,9 +66,10 @@ const WIDE_STACK_SIZE: usize = (WIDTH - 1) * STACK_SIZE + 1;
 #[derive(Clone, Copy, Debug, PartialEq)]
 #[repr(C, align(64))]
 pub(super) struct Node4 {
-    /// `b[0]` the children's minimum corners, `b[1]` their maximum ones,
-    /// each `[axis][child]`, so that `b[dir_is_neg]` picks the near sides.
-    b: [[[f32; WIDTH]; 3]; 2],
+    /// The children's minimum corners in rows 0 … 2 (`[axis][child]`), their
+    /// maximum ones in rows 3 … 5, so that row `3·dir_is_neg + axis` is an
+    /// axis's near sides ([`SlabRay::near`]).
+    b: [[f32; WIDTH]; 6],
     /// An interior child's node index, or a leaf child's first primitive.
     child: [u32; WIDTH],
     /// A leaf child's primitive count; 0 for an interior child.
@@ -84,7 +85,10 @@ const _: () = assert!(std::mem::size_of::<Node4>() == 128);
 struct SlabRay {
     o: Vec3,
     inv: Vec3,
-    neg: [usize; 3],
+    /// Per axis, the row of [`Node4::b`] holding the near sides, and the
+    /// far ones: worked out once per ray, not per node.
+    near: [usize; 3],
+    far: [usize; 3],
 }
 
 impl SlabRay {
@@ -92,7 +96,9 @@ impl SlabRay {
     fn new(ray: &Ray) -> Self {
         let inv = Vec3::new(1.0 / ray.d.x, 1.0 / ray.d.y, 1.0 / ray.d.z);
         let neg = [(inv.x < 0.0) as usize, (inv.y < 0.0) as usize, (inv.z < 0.0) as usize];
-        SlabRay { o: ray.o, inv, neg }
+        let near = [3 * neg[0], 1 + 3 * neg[1], 2 + 3 * neg[2]];
+        let far = [3 - 3 * neg[0], 4 - 3 * neg[1], 5 - 3 * neg[2]];
+        SlabRay { o: ray.o, inv, near, far }
     }
 }
 
@@ -110,8 +116,8 @@ impl Node4 {
         let mut t_near = [f32::NEG_INFINITY; WIDTH];
         let mut t_far = [f32::INFINITY; WIDTH];
         for axis in 0..3 {
-            let near = &self.b[r.neg[axis]][axis];
-            let far = &self.b[1 - r.neg[axis]][axis];
+            let near = &self.b[r.near[axis]];
+            let far = &self.b[r.far[axis]];
             for l in 0..WIDTH {
                 let tn = (near[l] - o[axis]) * inv[axis];
                 let tf = (far[l] - o[axis]) * inv[axis];
@@ -167,7 +173,7 @@ fn collapse(bin: &[LinearNode]) -> Vec<Node4> {
     // memory (and is given back once the tree is built).
     let mut out = Vec::with_capacity(bin.len() / 2 + 1);
     if !bin.is_empty() {
-        out.push(Node4 { b: [[[0.0; WIDTH]; 3]; 2], child: [0; WIDTH], count: [0; WIDTH], n: 0 });
+        out.push(Node4 { b: [[0.0; WIDTH]; 6], child: [0; WIDTH], count: [0; WIDTH], n: 0 });
         fill(bin, 0, 0, &mut out);
     }
     out
@@ -195,7 +201,14 @@ fn fill(bin: &[LinearNode], b: usize, slot: usize, out: &mut Vec<Node4>) {
     }
     // Empty lanes get an empty box as well as being masked off.
     let mut node = Node4 {
-        b: [[[f32::INFINITY; WIDTH]; 3], [[f32::NEG_INFINITY; WIDTH]; 3]],
+        b: [
+            [f32::INFINITY; WIDTH],
+            [f32::INFINITY; WIDTH],
+            [f32::INFINITY; WIDTH],
+            [f32::NEG_INFINITY; WIDTH],
+            [f32::NEG_INFINITY; WIDTH],
+            [f32::NEG_INFINITY; WIDTH],
+        ],
         child: [0; WIDTH],
         count: [0; WIDTH],
         n: n as u8,
@@ -205,8 +218,8 @@ fn fill(bin: &[LinearNode], b: usize, slot: usize, out: &mut Vec<Node4>) {
     for (l, &c) in lanes[..n].iter().enumerate() {
         let bn = &bin[c];
         for axis in 0..3 {
-            node.b[0][axis][l] = bn.b[0][axis];
-            node.b[1][axis][l] = bn.b[1][axis];
+            node.b[axis][l] = bn.b[0][axis];
+            node.b[3 + axis][l] = bn.b[1][axis];
         }
         if bn.is_leaf() {
             node.child[l] = bn.offset;

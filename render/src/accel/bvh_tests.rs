@@ -106,8 +106,8 @@ fn check_against_brute_force(prims: &[Prim], max_prims: usize, seed: u64) {
 fn check_structure(bvh: &Bvh, n: usize, max_leaf: usize) {
     let mut covered = vec![0u8; n];
     let lane_box = |node: &Node4, l: usize| Bounds3f {
-        min: Vec3::new(node.b[0][0][l], node.b[0][1][l], node.b[0][2][l]),
-        max: Vec3::new(node.b[1][0][l], node.b[1][1][l], node.b[1][2][l]),
+        min: Vec3::new(node.b[0][l], node.b[1][l], node.b[2][l]),
+        max: Vec3::new(node.b[3][l], node.b[4][l], node.b[5][l]),
     };
     let mut stack = vec![(0usize, 0usize, bvh.bounds())];
     while let Some((i, depth, parent)) = stack.pop() {
