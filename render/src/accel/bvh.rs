@@ -14,8 +14,9 @@
 //! --bench kernels -- bvh::`) this made camera rays 2.4× and shadow rays
 //! 3.4× faster than the binary tree.
 
+use super::node4::{Node4, SlabRay, WIDTH};
 use super::sah::{build_node, Extent, Limits, PrimInfo, COSTLY};
-use farm_common::geometry::{gamma, Bounds3f, Ray, Vec3};
+use farm_common::geometry::{Bounds3f, Ray, Vec3};
 use std::mem::MaybeUninit;
 
 /// pbrt-v3's default `maxnodeprims`.
@@ -52,89 +53,9 @@ impl LinearNode {
     }
 }
 
-/// Children per node of the traversed tree.
-const WIDTH: usize = 4;
-
 /// Depth of the traversal stack: a node pops one entry and pushes at most
 /// [`WIDTH`], and the 4-wide tree is no deeper than the binary one.
 const WIDE_STACK_SIZE: usize = (WIDTH - 1) * STACK_SIZE + 1;
-
-/// One node of the 4-wide tree the traversal walks: the boxes of up to four
-/// children, stored axis by axis so that one pass of slab arithmetic tests
-/// all four (the compiler vectorises the lane loop), and what each child
-/// is. Collapsed from the binary SAH tree, which stays pbrt-v3's build.
-#[derive(Clone, Copy, Debug, PartialEq)]
-#[repr(C, align(64))]
-pub(super) struct Node4 {
-    /// The children's minimum corners in rows 0 … 2 (`[axis][child]`), their
-    /// maximum ones in rows 3 … 5, so that row `3·dir_is_neg + axis` is an
-    /// axis's near sides ([`SlabRay::near`]).
-    b: [[f32; WIDTH]; 6],
-    /// An interior child's node index, or a leaf child's first primitive.
-    child: [u32; WIDTH],
-    /// A leaf child's primitive count; 0 for an interior child.
-    count: [u8; WIDTH],
-    /// Children in use; the rest of the lanes are never reported hit.
-    n: u8,
-}
-
-const _: () = assert!(std::mem::size_of::<Node4>() == 128);
-
-/// A ray prepared for box tests: origin, reciprocal direction and which
-/// side of each slab it enters by.
-struct SlabRay {
-    o: Vec3,
-    inv: Vec3,
-    /// Per axis, the row of [`Node4::b`] holding the near sides, and the
-    /// far ones: worked out once per ray, not per node.
-    near: [usize; 3],
-    far: [usize; 3],
-}
-
-impl SlabRay {
-    #[inline(always)]
-    fn new(ray: &Ray) -> Self {
-        let inv = Vec3::new(1.0 / ray.d.x, 1.0 / ray.d.y, 1.0 / ray.d.z);
-        let neg = [(inv.x < 0.0) as usize, (inv.y < 0.0) as usize, (inv.z < 0.0) as usize];
-        let near = [3 * neg[0], 1 + 3 * neg[1], 2 + 3 * neg[2]];
-        let far = [3 - 3 * neg[0], 4 - 3 * neg[1], 5 - 3 * neg[2]];
-        SlabRay { o: ray.o, inv, near, far }
-    }
-}
-
-impl Node4 {
-    /// pbrt-v3's slab test with precomputed reciprocal direction and signs,
-    /// on all four children: far distances are rounded up by 1 + 2γ₃ so that
-    /// no hit is lost. An axis whose slab test is undefined (a ray in the
-    /// plane of a face, 0·∞) does not constrain the ray: that keeps such
-    /// grazing rays, where pbrt-v3 keeps or drops them by axis. Returns a
-    /// bit mask of the children hit and each child's entry distance.
-    #[inline(always)]
-    fn hit(&self, r: &SlabRay, ray_t_max: f32) -> (u32, [f32; WIDTH]) {
-        let up = 1.0 + 2.0 * gamma(3);
-        let (o, inv) = (r.o.to_array(), r.inv.to_array());
-        let mut t_near = [f32::NEG_INFINITY; WIDTH];
-        let mut t_far = [f32::INFINITY; WIDTH];
-        for axis in 0..3 {
-            let near = &self.b[r.near[axis]];
-            let far = &self.b[r.far[axis]];
-            for l in 0..WIDTH {
-                let tn = (near[l] - o[axis]) * inv[axis];
-                let tf = (far[l] - o[axis]) * inv[axis];
-                // Written so that a NaN distance leaves the bound alone.
-                t_near[l] = if tn > t_near[l] { tn } else { t_near[l] };
-                t_far[l] = if tf < t_far[l] { tf } else { t_far[l] };
-            }
-        }
-        let mut mask = 0;
-        for l in 0..WIDTH {
-            let far = t_far[l] * up;
-            let hit = t_near[l] <= far && t_near[l] < ray_t_max && far > 0.0;
-            mask |= (hit as u32) << l;
-        }
-        (mask & ((1 << self.n) - 1), t_near)
-    }
-}
 
 /// `items` in the order `order` gives (entry `i` is the index of the item
 /// that goes to place `i`; a permutation), moved into a new vector. The

@@ -373,3 +373,39 @@ fn large_parallel_build_matches_brute_force() {
         assert_eq!(closest, brute, "ray {i}");
     }
 }
+
+/// The SSE node test gives the portable one's mask and distances, bit for
+/// bit, on boxes that are flat, empty or unbounded and rays that lie in a
+/// face's plane, start on one, or run along an axis (0·∞ slabs).
+#[test]
+fn the_vector_node_test_is_the_portable_one() {
+    let mut rng = Rng::new(17);
+    let mut pick = |v: &[f32]| v[(rng.uniform_u32() as usize) % v.len()];
+    let planes = [-2.0, -1.0, -0.0, 0.0, 0.5, 1.0, 3.0, f32::INFINITY, f32::NEG_INFINITY];
+    let dirs = [-1.0, -0.5, -0.0, 0.0, 1e-30, 0.25, 1.0, 7.0];
+    let (mut hits, mut tested) = (0u32, 0u32);
+    for _ in 0..200_000 {
+        // Rows 0 … 2 the minima, 3 … 5 the maxima; some boxes flat.
+        let mut b = [[0.0f32; WIDTH]; 6];
+        let (mins, maxs) = b.split_at_mut(3);
+        for (lo, hi) in mins.iter_mut().flatten().zip(maxs.iter_mut().flatten()) {
+            let (x, y) = (pick(&planes), pick(&planes));
+            *lo = x.min(y);
+            *hi = if pick(&[0.0, 1.0]) == 0.0 { x.min(y) } else { x.max(y) };
+        }
+        let n = 1 + (pick(&[0.0, 1.0, 2.0, 3.0]) as u8);
+        let node = Node4 { b, child: [0; WIDTH], count: [0; WIDTH], n };
+        let o = Vec3::new(pick(&planes[..7]), pick(&planes[..7]), pick(&planes[..7]));
+        let d = Vec3::new(pick(&dirs), pick(&dirs), pick(&dirs));
+        let r = SlabRay::new(&Ray::new(o, d, 0.0));
+        let t_max = pick(&[0.5, 2.0, f32::INFINITY]);
+        let (m, t) = node.hit(&r, t_max);
+        let (pm, pt) = node.hit_portable(&r, t_max);
+        assert_eq!(m, pm, "{b:?} {o:?} {d:?}");
+        assert_eq!(t.map(f32::to_bits), pt.map(f32::to_bits), "{b:?} {o:?} {d:?}");
+        hits += m.count_ones();
+        tested += u32::from(n);
+    }
+    // Both hits and misses were tested.
+    assert!(hits > 5_000 && tested - hits > 5_000, "{hits} of {tested}");
+}

@@ -2,6 +2,7 @@
 //! a `"kdtree"` accelerator in a scene is built as a BVH too.
 
 mod bvh;
+mod node4;
 mod sah;
 
 pub use bvh::{Bvh, DEFAULT_MAX_PRIMS_IN_NODE};
