@@ -306,19 +306,45 @@ impl<T: Texel> MipMap<T> {
         let s1 = math::floor(st.x + 2.0 * inv_det * u_sqrt) as i64;
         let t0 = math::ceil(st.y - 2.0 * inv_det * v_sqrt) as i64;
         let t1 = math::floor(st.y + 2.0 * inv_det * v_sqrt) as i64;
+        let e = Ellipse { st, a, b, c, s: (s0, s1), t: (t0, t1) };
+        // A repeating power-of-two level (every level of a repeating map)
+        // wraps a column with a mask alone; the others as `texel` does.
+        let (sum, sum_wts) = if self.wrap == WrapMode::Repeat && l.w.is_power_of_two() {
+            let mask = l.w - 1;
+            self.ewa_sum(l, &e, |is| Some(is as usize & mask))
+        } else {
+            self.ewa_sum(l, &e, |is| wrap_index(is, l.w, self.wrap))
+        };
+        sum * (1.0 / sum_wts)
+    }
+
+    /// The weighted sum of the texels inside `e` and the sum of their
+    /// weights (pbrt-v3's loop, in its order), `column` wrapping a column.
+    #[inline(always)]
+    fn ewa_sum(
+        &self,
+        l: &Level<T>,
+        e: &Ellipse,
+        column: impl Fn(i64) -> Option<usize>,
+    ) -> (T, f32) {
+        let (st, a, b, c) = (e.st, e.a, e.b, e.c);
         let mut sum = T::default();
         let mut sum_wts = 0.0f32;
-        for it in t0..=t1 {
+        for it in e.t.0..=e.t.1 {
             let tt = it as f32 - st.y;
             // The row's wrapped index, once a row (`texel`'s, inlined).
             let row = wrap_index(it, l.h, self.wrap);
-            for is in s0..=s1 {
+            for is in e.s.0..=e.s.1 {
                 let ss = is as f32 - st.x;
                 let r2 = a * ss * ss + b * ss * tt + c * tt * tt;
                 if r2 < 1.0 {
-                    let index = ((r2 * WEIGHT_LUT_SIZE as f32) as usize).min(WEIGHT_LUT_SIZE - 1);
+                    // `as usize` of the product, saturating at 0, as a
+                    // 32-bit conversion: the product is below 128 here.
+                    let index = ((r2 * WEIGHT_LUT_SIZE as f32) as i32)
+                        .clamp(0, WEIGHT_LUT_SIZE as i32 - 1)
+                        as usize;
                     let weight = self.weight_lut[index];
-                    let texel = match (row, wrap_index(is, l.w, self.wrap)) {
+                    let texel = match (row, column(is)) {
                         (Some(t), Some(s)) => l.texels[t * l.w + s],
                         _ => T::default(),
                     };
@@ -327,8 +353,20 @@ impl<T: Texel> MipMap<T> {
                 }
             }
         }
-        sum * (1.0 / sum_wts)
+        (sum, sum_wts)
     }
+}
+
+/// An EWA lookup's ellipse on one level: centre `st` in texel coordinates,
+/// inside where `a·ss² + b·ss·tt + c·tt² < 1`, within the texel box
+/// `s` × `t`.
+struct Ellipse {
+    st: Vec2,
+    a: f32,
+    b: f32,
+    c: f32,
+    s: (i64, i64),
+    t: (i64, i64),
 }
 
 #[cfg(test)]
