@@ -1,0 +1,160 @@
+//! Tests of the journal: what it writes, what it reads back, what a purge
+//! forgets.
+
+use super::*;
+use crate::scheduler::{Owner, ShotFrame};
+use farm_common::film::FilmGeometry;
+use farm_common::film::PassPlan;
+use farm_common::geometry::{Bounds2i, Point2i, Vec2};
+use farm_common::ids::JobId;
+
+fn spec(blobs: Vec<Hash>) -> JobSpec {
+    let b = Bounds2i::new(Point2i::new(0, 0), Point2i::new(8, 8));
+    let geometry = FilmGeometry::new(
+        Point2i::new(8, 8),
+        b,
+        Vec2::splat(0.5),
+        1.0,
+        f32::INFINITY,
+        "x.exr".into(),
+        35.0,
+    );
+    JobSpec {
+        name: "j".into(),
+        priority: 0,
+        scene_hash: blobs[0].to_vec(),
+        spp_override: 0,
+        spp: 1,
+        geometry,
+        owner: Owner::default(),
+        detach: false,
+        blobs,
+        shot: None,
+        passes: None,
+        parallel_tiles: false,
+    }
+}
+
+async fn purge(j: &Journal, jobs: Vec<u64>) -> Vec<Hash> {
+    let (reply, rx) = oneshot::channel();
+    j.send(Command::Purge { jobs, unreferenced_before: unix_now() + 10, reply });
+    let mut v = rx.await.unwrap();
+    v.sort();
+    v
+}
+
+#[tokio::test]
+async fn purges_forget_jobs_and_report_the_blobs_no_job_needs() {
+    let (j, _) = Journal::open(None).unwrap();
+    let (a, b, c) = ([1u8; 32], [2u8; 32], [3u8; 32]);
+    for h in [a, b, c] {
+        j.send(Command::BlobStored { hash: h, size: 10, owner: "t".into() });
+    }
+    let s1 = spec(vec![a, b]);
+    j.send(Command::Submitted {
+        id: 1,
+        detach: false,
+        blobs: s1.blobs.clone(),
+        spec: Box::new(s1),
+    });
+    let s2 = spec(vec![b]);
+    j.send(Command::Submitted {
+        id: 2,
+        detach: false,
+        blobs: s2.blobs.clone(),
+        spec: Box::new(s2),
+    });
+    // Only c is needed by no job.
+    assert_eq!(purge(&j, vec![]).await, vec![c]);
+    // Job 1 goes: a with it; b is still job 2's.
+    assert_eq!(purge(&j, vec![1]).await, vec![a]);
+    assert_eq!(purge(&j, vec![2]).await, vec![b]);
+    assert_eq!(purge(&j, vec![]).await, Vec::<Hash>::new());
+}
+
+/// A frame's place in its shot, a job's passes and whether its tiles
+/// render on all threads are journalled beside its job, come back when
+/// the coordinator restarts, and go when the job is purged.
+#[tokio::test]
+async fn a_frames_shot_and_a_jobs_passes_survive_a_restart() {
+    let dir = std::env::temp_dir().join(format!("farm-journal-shot-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let db = dir.join("state.db");
+    let frame = ShotFrame { shot: JobId(7), frame: 3, frames: 24 };
+    let plan = PassPlan::new(64, Some(1e-3), Some(30.0));
+    {
+        let (j, _) = Journal::open(Some(&db)).unwrap();
+        for (id, shot) in [(7, Some(frame)), (8, None)] {
+            let passes = (id == 8).then(|| plan.clone());
+            let parallel_tiles = id == 7;
+            let s = JobSpec { shot, passes, parallel_tiles, ..spec(vec![[1u8; 32]]) };
+            j.send(Command::Submitted { id, detach: false, blobs: vec![], spec: Box::new(s) });
+        }
+        j.flush().await;
+    }
+    let (j, restored) = Journal::open(Some(&db)).unwrap();
+    let shots: Vec<_> = restored.jobs.iter().map(|s| (s.id, s.spec.shot)).collect();
+    assert_eq!(shots, [(7, Some(frame)), (8, None)]);
+    let passes: Vec<_> = restored.jobs.iter().map(|s| s.spec.passes.clone()).collect();
+    assert_eq!(passes, [None, Some(plan)]);
+    let parallel: Vec<_> = restored.jobs.iter().map(|s| s.spec.parallel_tiles).collect();
+    assert_eq!(parallel, [true, false]);
+    purge(&j, vec![7, 8]).await;
+    drop(j);
+    let (_, restored) = Journal::open(Some(&db)).unwrap();
+    assert_eq!(restored.jobs.len(), 0);
+    let conn = Connection::open(&db).unwrap();
+    let rows: i64 = conn.query_row("SELECT count(*) FROM frames", [], |r| r.get(0)).unwrap();
+    assert_eq!(rows, 0, "the purged frame's row is gone");
+    let rows: i64 = conn.query_row("SELECT count(*) FROM passes", [], |r| r.get(0)).unwrap();
+    assert_eq!(rows, 0, "the purged job's passes are gone");
+    let rows: i64 =
+        conn.query_row("SELECT count(*) FROM parallel_tiles", [], |r| r.get(0)).unwrap();
+    assert_eq!(rows, 0, "the purged job's row is gone");
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+/// A film journalled when its halves were the bool
+/// `independent_samples` still decodes: false as `Spread`, true as
+/// `Independent`.
+#[test]
+fn a_film_journalled_before_half_images_still_decodes() {
+    use farm_common::film::{FilmGeometry, HalfImages};
+    use farm_common::geometry::{Bounds2i, Point2i, Vec2};
+    #[derive(serde::Serialize)]
+    struct Before {
+        full_resolution: Point2i,
+        cropped_pixel_bounds: Bounds2i,
+        filter_radius: Vec2,
+        sample_bounds: Bounds2i,
+        n_tiles: Point2i,
+        scale: f32,
+        max_sample_luminance: f32,
+        filename: String,
+        diagonal: f32,
+        independent_samples: bool,
+        signed_weights: bool,
+    }
+    let b = Bounds2i::new(Point2i::new(0, 0), Point2i::new(40, 30));
+    let g = FilmGeometry::new(b.max, b, Vec2::splat(2.0), 1.0, 1e9, "x.exr".into(), 35.0);
+    for (old, now) in [(false, HalfImages::Spread), (true, HalfImages::Independent)] {
+        let before = Before {
+            full_resolution: g.full_resolution,
+            cropped_pixel_bounds: g.cropped_pixel_bounds,
+            filter_radius: g.filter_radius,
+            sample_bounds: g.sample_bounds,
+            n_tiles: g.n_tiles,
+            scale: g.scale,
+            max_sample_luminance: g.max_sample_luminance,
+            filename: g.filename.clone(),
+            diagonal: g.diagonal,
+            independent_samples: old,
+            signed_weights: true,
+        };
+        let bytes = postcard::to_stdvec(&before).unwrap();
+        let read: FilmGeometry = postcard::from_bytes(&bytes).unwrap();
+        assert_eq!(read.half_images, now);
+        assert!(read.signed_weights);
+        assert_eq!(read.filename, "x.exr");
+    }
+}
