@@ -16,7 +16,7 @@ use super::lowdiscrepancy::{
     PRIME_SUMS, PRIME_TABLE_SIZE,
 };
 use super::pixel::{GlobalSampler, GlobalSequence};
-use farm_common::geometry::{Bounds2i, Point2i};
+use farm_common::geometry::{Bounds2i, Point2i, Vec2};
 use farm_common::rng::Rng;
 use std::sync::OnceLock;
 
@@ -141,6 +141,25 @@ impl GlobalSequence for Halton {
         self.offset_for_current_pixel + sample_num * self.sample_stride
     }
 
+    /// Two dimensions with digit-pair tables in one call: the common case
+    /// of a light's or a BSDF's sample, without a second call's set-up.
+    #[inline]
+    fn sample_2d(&self, pixel: Point2i, index: i64, dim: usize) -> Vec2 {
+        if (2..PAIR_DIMS - 1).contains(&dim) {
+            let a = index as u64;
+            let (p0, p1) =
+                (self.permutation_for_dimension(dim), self.permutation_for_dimension(dim + 1));
+            return Vec2::new(
+                self.pairs.scrambled_radical_inverse(dim, a, p0),
+                self.pairs.scrambled_radical_inverse(dim + 1, a, p1),
+            );
+        }
+        Vec2::new(
+            self.sample_dimension(pixel, index, dim),
+            self.sample_dimension(pixel, index, dim + 1),
+        )
+    }
+
     fn sample_dimension(&self, _pixel: Point2i, index: i64, dim: usize) -> f32 {
         if self.sample_at_pixel_center && dim < 2 {
             return 0.5;
@@ -172,6 +191,27 @@ mod tests {
 
     fn bounds(w: i32, h: i32) -> Bounds2i {
         Bounds2i::new(Point2i::new(0, 0), Point2i::new(w, h))
+    }
+
+    /// A pair of dimensions in one call is the two dimensions, for pairs
+    /// in the digit-pair tables, across their end, and past it.
+    #[test]
+    fn pairs_of_dimensions_are_the_dimensions() {
+        let h = Halton::new(bounds(64, 64), false);
+        let mut rng = Rng::new(5);
+        for dim in 0..PAIR_DIMS + 4 {
+            for _ in 0..200 {
+                let index = i64::from(rng.uniform_u32() >> (rng.uniform_u32() % 32));
+                let p = Point2i::new(3, 9);
+                let pair = h.sample_2d(p, index, dim);
+                let one =
+                    (h.sample_dimension(p, index, dim), h.sample_dimension(p, index, dim + 1));
+                assert_eq!(
+                    (pair.x.to_bits(), pair.y.to_bits()),
+                    (one.0.to_bits(), one.1.to_bits())
+                );
+            }
+        }
     }
 
     /// Dimensions on both sides of the eager prefix read pbrt-v3's table.

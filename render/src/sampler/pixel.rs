@@ -191,6 +191,14 @@ pub trait GlobalSequence: Clone {
     /// Dimension `dim` of global sample `index`; dimensions 0 and 1 are
     /// returned as offsets within `pixel`.
     fn sample_dimension(&self, pixel: Point2i, index: i64, dim: usize) -> f32;
+    /// Dimensions `dim` and `dim + 1` of global sample `index`.
+    #[inline]
+    fn sample_2d(&self, pixel: Point2i, index: i64, dim: usize) -> Vec2 {
+        Vec2::new(
+            self.sample_dimension(pixel, index, dim),
+            self.sample_dimension(pixel, index, dim + 1),
+        )
+    }
 }
 
 /// First dimension used for sample arrays (pbrt-v3 `arrayStartDim`).
@@ -270,8 +278,7 @@ impl<S: GlobalSequence> GlobalSampler<S> {
     #[inline]
     pub fn get_2d(&mut self) -> Vec2 {
         let d = self.next_dimensions(2);
-        let (p, i) = (self.core.current_pixel, self.interval_sample_index);
-        Vec2::new(self.seq.sample_dimension(p, i, d), self.seq.sample_dimension(p, i, d + 1))
+        self.seq.sample_2d(self.core.current_pixel, self.interval_sample_index, d)
     }
 
     /// Passes over the next 1D value without computing it: later values
