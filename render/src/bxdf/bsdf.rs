@@ -8,6 +8,7 @@ use crate::interaction::SurfaceInteraction;
 use farm_common::geometry::{Vec2, Vec3};
 use farm_common::math;
 use farm_common::Spectrum;
+use std::mem::MaybeUninit;
 
 /// Most lobes a BSDF holds (pbrt-v3 `MaxBxDFs`).
 pub const MAX_BXDFS: usize = 8;
@@ -26,7 +27,7 @@ pub struct BsdfSample {
 }
 
 /// Scattering at one point: shading frame plus scaled lobes.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy)]
 pub struct Bsdf<'a> {
     /// Relative index of refraction across the boundary (1 for opaque).
     pub eta: f32,
@@ -39,7 +40,30 @@ pub struct Bsdf<'a> {
     /// Shading bitangent (ns × ss).
     pub ts: Vec3,
     n: usize,
-    bxdfs: [(BxDF<'a>, Spectrum); MAX_BXDFS],
+    /// The first `n` are the lobes; the rest are never written, so that a
+    /// BSDF made at every hit does not fill eight lobes (about 600 bytes)
+    /// it rarely uses.
+    bxdfs: [MaybeUninit<(BxDF<'a>, Spectrum)>; MAX_BXDFS],
+}
+
+impl std::fmt::Debug for Bsdf<'_> {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Bsdf")
+            .field("eta", &self.eta)
+            .field("ns", &self.ns)
+            .field("ng", &self.ng)
+            .field("ss", &self.ss)
+            .field("ts", &self.ts)
+            .field("lobes", &self.lobes())
+            .finish()
+    }
+}
+
+impl PartialEq for Bsdf<'_> {
+    fn eq(&self, o: &Self) -> bool {
+        (self.eta, self.ns, self.ng, self.ss, self.ts) == (o.eta, o.ns, o.ng, o.ss, o.ts)
+            && self.lobes() == o.lobes()
+    }
 }
 
 impl<'a> Bsdf<'a> {
@@ -54,7 +78,7 @@ impl<'a> Bsdf<'a> {
             ss,
             ts: ns.cross(ss),
             n: 0,
-            bxdfs: [(BxDF::default(), Spectrum::ONE); MAX_BXDFS],
+            bxdfs: [MaybeUninit::uninit(); MAX_BXDFS],
         }
     }
 
@@ -69,7 +93,7 @@ impl<'a> Bsdf<'a> {
     pub fn add_scaled(&mut self, b: BxDF<'a>, scale: Spectrum) {
         debug_assert!(self.n < MAX_BXDFS, "too many BxDFs");
         if self.n < MAX_BXDFS {
-            self.bxdfs[self.n] = (b, scale);
+            self.bxdfs[self.n] = MaybeUninit::new((b, scale));
             self.n += 1;
         }
     }
@@ -77,12 +101,19 @@ impl<'a> Bsdf<'a> {
     /// The lobes and their scales.
     #[inline]
     pub fn lobes(&self) -> &[(BxDF<'a>, Spectrum)] {
-        &self.bxdfs[..self.n]
+        let lobes = &self.bxdfs[..self.n];
+        // SAFETY: the first `n` entries were written by `add_scaled`, and
+        // `MaybeUninit<T>` has `T`'s layout.
+        unsafe { std::slice::from_raw_parts(lobes.as_ptr().cast(), lobes.len()) }
     }
 
     /// Multiplies every lobe's scale by `s`.
     pub fn scale_all(&mut self, s: Spectrum) {
-        for l in &mut self.bxdfs[..self.n] {
+        let lobes = &mut self.bxdfs[..self.n];
+        // SAFETY: as in `lobes`.
+        let lobes: &mut [(BxDF<'a>, Spectrum)] =
+            unsafe { std::slice::from_raw_parts_mut(lobes.as_mut_ptr().cast(), lobes.len()) };
+        for l in lobes {
             l.1 *= s;
         }
     }
@@ -150,7 +181,7 @@ impl<'a> Bsdf<'a> {
             .filter(|(_, (b, _))| b.matches_flags(flags))
             .nth(comp)
             .map(|(i, _)| i)?;
-        let (bxdf, scale) = self.bxdfs[chosen];
+        let (bxdf, scale) = self.lobes()[chosen];
         let u_remapped =
             Vec2::new((u.x * matching as f32 - comp as f32).min(ONE_MINUS_EPSILON), u.y);
         let wo = self.world_to_local(wo_world);
