@@ -134,7 +134,7 @@ pub fn suspects(
     spp: u32,
 ) -> Suspects {
     let n = width * height;
-    let value = |j: usize| value(&pixel(j), scale).unwrap_or(0.0);
+    let value_at = |j: usize| value(&pixel(j), scale).unwrap_or(0.0);
     let (mut fireflies, mut edges) = (Vec::new(), Vec::new());
     let mut around = Vec::with_capacity(8);
     for i in 0..n {
@@ -151,7 +151,7 @@ pub fn suspects(
         for ny in y.saturating_sub(1)..(y + 2).min(height) {
             for nx in x.saturating_sub(1)..(x + 2).min(width) {
                 if (nx, ny) != (x, y) {
-                    around.push(value(ny * width + nx));
+                    around.push(value_at(ny * width + nx));
                 }
             }
         }
