@@ -16,8 +16,10 @@ pub struct DiffuseAreaLight {
     pub shape: Shape,
     /// `twosided`: emit from the back too.
     pub two_sided: bool,
-    /// 1 / the shape's area, worked out once (pbrt-v3 keeps `area` too).
-    pub inv_area: f32,
+    /// 1 / the shape's area, worked out once (pbrt-v3 keeps `area` too);
+    /// private, so that only [`DiffuseAreaLight::new`] makes a light and it
+    /// always matches `shape`.
+    inv_area: f32,
 }
 
 impl DiffuseAreaLight {
