@@ -10,7 +10,7 @@ use crate::filters::{self, Filter};
 use crate::integrator::{RayStats, Whitted};
 use crate::sampler::{self, CameraDims, Sampler};
 use crate::world::World;
-use farm_common::film::{FilmGeometry, FilmTile, SampleRange};
+use farm_common::film::{FilmGeometry, FilmTile, SampleRange, TILE_PARTS, TILE_SIZE};
 use farm_common::geometry::{
     AnimatedTransform, Bounds2i, DMat4, DVec3, Point2i, RayDifferential, Transform, Vec2,
 };
@@ -239,10 +239,26 @@ impl Renderer {
         range: Option<SampleRange>,
     ) -> (FilmTile, RayStats) {
         if self.tiles_parallel() {
-            self.render_pixels_parallel(id, range)
+            self.render_pixels_parallel(id, range, 0..TILE_PARTS)
         } else {
             self.render_samples(id, range)
         }
+    }
+
+    /// Renders part `part` (below `TILE_PARTS`) of a tile whose sampler is
+    /// stateless ([`Renderer::tiles_parallel`]), on the pool's threads: a
+    /// film over the whole tile's pixel bounds with that part's samples.
+    /// A zero film with the parts' films added in part order
+    /// (`FilmTile::merge`) is the tile's film, bit for bit. `None` for a
+    /// sampler with state, whose parts cannot be drawn apart.
+    pub fn render_part(
+        &self,
+        id: TileId,
+        range: Option<SampleRange>,
+        part: u32,
+    ) -> Option<(FilmTile, RayStats)> {
+        (self.tiles_parallel() && part < TILE_PARTS)
+            .then(|| self.render_pixels_parallel(id, range, part..part + 1))
     }
 
     /// Whether [`Renderer::render_tile_parallel`] spreads a tile's pixels
@@ -252,22 +268,29 @@ impl Renderer {
         self.sampler.is_stateless()
     }
 
+    /// The tile's parts `parts`: their pixels traced on the pool's
+    /// threads a run at a time, as one list, and splatted in pixel order,
+    /// each part into a film of its own, added in part order into a zero
+    /// film.
     fn render_pixels_parallel(
         &self,
         id: TileId,
         range: Option<SampleRange>,
+        parts: std::ops::Range<u32>,
     ) -> (FilmTile, RayStats) {
         let seed = self.film.tile_seed(id);
         let base = self.sampler.clone_with_seed(seed);
         let diff_scale = self.diff_scale();
         let (first, end) = range.map_or((0, u32::MAX), |r| (r.first, r.end));
-        let pixels: Vec<Point2i> = self
-            .film
-            .tile_sample_bounds(id)
-            .iter()
+        let block = self.film.tile_sample_bounds(id);
+        let band_of = |p: Point2i| (p.y - block.min.y) / (TILE_SIZE / TILE_PARTS as i32);
+        let pixels: Vec<Point2i> = parts
+            .flat_map(|k| self.film.tile_part_sample_bounds(id, k).iter())
             .filter(|p| self.film.sample_bounds.contains(*p) && self.pixel_bounds.contains(*p))
             .collect();
         let mut tile = FilmTile::new(self.film.tile_pixel_bounds(id));
+        let mut part = tile.clone();
+        let mut band = pixels.first().map_or(0, |&p| band_of(p));
         let n = end.min(base.samples_per_pixel()).saturating_sub(first).max(1) as usize;
         // Traced and splatted a run of pixels at a time, so the samples
         // held stay within `PARALLEL_SAMPLES` whatever the count per pixel.
@@ -288,12 +311,19 @@ impl Renderer {
                 diff_scale,
             );
             stats.add(&s);
-            for (samples, &count) in traced.chunks(n).zip(&counts[..used]) {
+            let done = traced.chunks(n).zip(&counts[..used]).zip(pixels);
+            for ((samples, &count), &pixel) in done {
+                if band_of(pixel) != band {
+                    tile.merge(&part);
+                    part.pixels.fill(Default::default());
+                    band = band_of(pixel);
+                }
                 for t in &samples[..count] {
-                    self.add_sample(&mut tile, t.p_film, t.l, t.weight, t.second_half);
+                    self.add_sample(&mut part, t.p_film, t.l, t.weight, t.second_half);
                 }
             }
         }
+        tile.merge(&part);
         (tile, stats)
     }
 
@@ -418,7 +448,17 @@ impl Renderer {
         let diff_scale = self.diff_scale();
         let halves = sampler.halves();
         let (first, end) = range.map_or((0, u32::MAX), |r| (r.first, r.end));
+        // A stateless sampler's tile sums a part (a band of rows) at a
+        // time, as `render_pixels_parallel` and `render_part` do.
+        let rows = TILE_SIZE / TILE_PARTS as i32;
+        let mut part = tile.clone();
+        let mut band = 0;
         for pixel in bounds.iter() {
+            if stateless && (pixel.y - bounds.min.y) / rows != band {
+                tile.merge(&part);
+                part.pixels.fill(Default::default());
+                band = (pixel.y - bounds.min.y) / rows;
+            }
             if stateless && !self.film.sample_bounds.contains(pixel) {
                 continue;
             }
@@ -437,12 +477,16 @@ impl Renderer {
             loop {
                 let t =
                     self.trace(&mut sampler, pixel, index, range, halves, diff_scale, &mut stats);
-                self.add_sample(&mut tile, t.p_film, t.l, t.weight, t.second_half);
+                let film = if stateless { &mut part } else { &mut tile };
+                self.add_sample(film, t.p_film, t.l, t.weight, t.second_half);
                 index += 1;
                 if index >= end || !sampler.start_next_sample() {
                     break;
                 }
             }
+        }
+        if stateless {
+            tile.merge(&part);
         }
         (tile, stats)
     }

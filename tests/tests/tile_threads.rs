@@ -74,6 +74,42 @@ fn a_stateless_samplers_tile_renders_on_every_thread_with_one_threads_bits() {
     }
 }
 
+/// A stateless sampler's tile rendered as its parts, each on its own (as
+/// idle workers render them at the end of a frame) and added in part
+/// order into a zero film, has the tile's bits, under the wide filter
+/// whose splats cross the parts' edges: whole or one pass's samples.
+#[test]
+fn a_tiles_parts_added_in_order_have_the_tiles_bits() {
+    use farm_common::film::{FilmTile, TILE_PARTS};
+    let pool = rayon::ThreadPoolBuilder::new().num_threads(3).build().expect("pool");
+    let pass = SampleRange { first: 2, end: 6, second_from: 4, own_halves: false };
+    for sampler in ["halton", "sobol"] {
+        let r = renderer(sampler);
+        for tile in 0..r.film.tile_count() {
+            let id = TileId(tile);
+            for range in [None, Some(pass)] {
+                let (whole, whole_stats) = match range {
+                    None => r.render_tile(id),
+                    Some(p) => r.render_tile_samples(id, p),
+                };
+                let mut sum = FilmTile::new(whole.pixel_bounds);
+                let mut stats = farm_common::stats::RayStats::default();
+                for k in 0..TILE_PARTS {
+                    let (part, s) =
+                        pool.install(|| r.render_part(id, range, k)).expect("a stateless sampler");
+                    assert_eq!(part.pixel_bounds, whole.pixel_bounds);
+                    sum.merge(&part);
+                    stats.add(&s);
+                }
+                assert_eq!(bits(&sum), bits(&whole), "{sampler}, tile {tile}, {range:?}");
+                assert_eq!(stats, whole_stats, "{sampler}, tile {tile}");
+            }
+        }
+    }
+    assert!(renderer("random").render_part(TileId(0), None, 0).is_none());
+    assert!(renderer("halton").render_part(TileId(0), None, TILE_PARTS).is_none());
+}
+
 #[test]
 fn at_many_samples_a_tile_is_traced_a_run_of_pixels_at_a_time_with_the_same_bits() {
     // 1024 samples a pixel: a tile's 256 pixels are traced and splatted in

@@ -15,4 +15,4 @@ pub use passes::{
     sum_order_bound, PassEnd, PassPlan, PassStop, SampleRange, DEFAULT_PASS_CAP, FIRST_PASS_SPP,
 };
 pub use tile::{resolve, FilmTile, Pixel};
-pub use tiling::{FilmGeometry, HalfImages, TILE_SIZE};
+pub use tiling::{FilmGeometry, HalfImages, TILE_PARTS, TILE_SIZE};

@@ -8,6 +8,10 @@ use serde::{Deserialize, Serialize};
 /// Tiles are 16×16 samples' worth of pixels, as in pbrt-v3.
 pub const TILE_SIZE: i32 = 16;
 
+/// The parts a tile's samples split into (see
+/// [`FilmGeometry::tile_part_sample_bounds`]): four bands of four rows.
+pub const TILE_PARTS: u32 = 4;
+
 /// How the two half-images of a film's samples relate, which sets how a
 /// render turns their difference into an error estimate
 /// (`farm_coordinator::estimate`). It is stored as one byte, as the `bool`
@@ -198,6 +202,21 @@ impl FilmGeometry {
         )
     }
 
+    /// The pixels whose samples part `part` (below [`TILE_PARTS`]) of a
+    /// tile takes: its block's rows `part × 4` to `part × 4 + 4` (fewer,
+    /// or none, in a short block at the film's edge). A tile whose samples
+    /// depend on the pixel alone (Halton, Sobol') sums its film a part at
+    /// a time, each part's film started from zero and added in part order,
+    /// so the parts rendered apart (on idle workers at the end of a frame)
+    /// and added in that order give the same bits as the tile.
+    pub fn tile_part_sample_bounds(&self, id: TileId, part: u32) -> Bounds2i {
+        let block = self.tile_sample_bounds(id);
+        let rows = TILE_SIZE / TILE_PARTS as i32;
+        let y0 = (block.min.y + rows * part.min(TILE_PARTS) as i32).min(block.max.y);
+        let y1 = (y0 + rows).min(block.max.y);
+        Bounds2i::new(Point2i::new(block.min.x, y0), Point2i::new(block.max.x, y1))
+    }
+
     /// The seed of a tile's sampler: its index in the whole film's grid
     /// (pbrt-v3 seeds each tile with its index), the same in a crop.
     pub fn tile_seed(&self, id: TileId) -> u64 {
@@ -325,6 +344,25 @@ mod tests {
             "x.exr".into(),
             35.0,
         )
+    }
+
+    #[test]
+    fn a_tiles_parts_split_its_samples_in_row_bands() {
+        for (w, h) in [(64, 48), (37, 21), (3, 2)] {
+            let g = film(w, h, 1.5);
+            for t in 0..g.tile_count() {
+                let block = g.tile_sample_bounds(TileId(t));
+                let mut rows = block.min.y;
+                for k in 0..TILE_PARTS {
+                    let part = g.tile_part_sample_bounds(TileId(t), k);
+                    assert_eq!((part.min.x, part.max.x), (block.min.x, block.max.x));
+                    assert_eq!(part.min.y, rows, "tile {t} part {k}");
+                    assert!(part.height() <= TILE_SIZE / TILE_PARTS as i32);
+                    rows = part.max.y;
+                }
+                assert_eq!(rows, block.max.y, "the parts reach the block's end");
+            }
+        }
     }
 
     #[test]
