@@ -137,6 +137,10 @@ where
         self.pool.spawn_fifo(move || {
             let outcome = if cancelled.load(Ordering::Relaxed) {
                 Err("the job was cancelled".to_string())
+            } else if a.part.is_some() {
+                // The scheduler splits a tile only for workers other than
+                // its holder, and an embedded render has one worker.
+                Err("a part of a tile handed to the only worker".to_string())
             } else {
                 catch_unwind(AssertUnwindSafe(|| render(a.tile, a.samples))).map_err(|p| {
                     let msg = p

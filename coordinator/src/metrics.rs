@@ -90,7 +90,7 @@ impl Metrics {
         let tiles_speculated = Counter::default();
         r.register(
             "tiles_speculated",
-            "Second hand-outs of tiles still out once none was left (the first result wins)",
+            "Second hand-outs of tiles still out once none was left, each part of a tile split among idle workers counted (the first result wins)",
             tiles_speculated.clone(),
         );
         let tiles_failed = Counter::default();

@@ -91,6 +91,46 @@ async fn a_stalled_worker_loses_its_tiles_without_changing_a_bit() {
     cluster.stop().await;
 }
 
+/// A worker that keeps its session alive but never finishes its tile: the
+/// tile is never requeued, so the job can only end by idle workers
+/// rendering it again. The example's tiles (Halton) render on all of a
+/// worker's threads, so the real worker renders that tile in parts, each
+/// a band of its rows, and the parts added in order give the image's bits.
+#[tokio::test(flavor = "multi_thread", worker_threads = 4)]
+async fn a_tile_held_forever_is_rendered_again_in_parts_without_changing_a_bit() {
+    let reference = bits(&embedded());
+    let cluster = TestCluster::start(0, Duration::from_millis(400)).await;
+    let (tx, mut holder) = fake_worker(&cluster.url, 1).await;
+    let url = cluster.url.clone();
+    let job = tokio::spawn(async move { remote(&url).await });
+    let first = holder.message().await.expect("stream").expect("an assignment");
+    let Some(coordinator_message::Kind::Assign(a)) = first.kind else { panic!("{first:?}") };
+    assert_eq!(a.part, 0, "a whole tile first");
+    let beat = tokio::spawn(async move {
+        loop {
+            let msg =
+                v1::WorkerMessage { kind: Some(worker_message::Kind::Heartbeat(v1::Heartbeat {})) };
+            if tx.send(msg).is_err() {
+                return;
+            }
+            tokio::time::sleep(Duration::from_millis(50)).await;
+        }
+    });
+    let mut cluster = cluster;
+    cluster.add_worker();
+    let image = tokio::time::timeout(Duration::from_secs(120), job)
+        .await
+        .expect("job finishes while the holder still holds its tile")
+        .expect("task");
+    assert!(bits(&image) == reference, "image differs with a tile rendered in parts");
+    // The held tile went out again as its four parts (a whole second
+    // hand-out would count one).
+    let status = client::status(&cluster.remote()).await.expect("status");
+    assert_eq!(status.jobs[0].speculated, 4);
+    beat.abort();
+    cluster.stop().await;
+}
+
 #[tokio::test(flavor = "multi_thread", worker_threads = 4)]
 async fn duplicates_bad_tiles_and_unknown_jobs_are_refused_without_harm() {
     let reference = bits(&embedded());

@@ -2,7 +2,7 @@
 
 use crate::pool::CpuPool;
 use crate::renderer_cache::RendererCache;
-use farm_common::film::SampleRange;
+use farm_common::film::{SampleRange, TILE_PARTS};
 use farm_common::ids::TileId;
 use farm_proto::connect::Client;
 use farm_proto::convert::Hash;
@@ -71,6 +71,15 @@ pub async fn render_tile(
     if let Some(Err(why)) = samples.map(|r| r.check(renderer.samples_per_pixel())) {
         return failure(why, false);
     }
+    // A part of the tile, for a sampler whose pixels can be drawn apart.
+    let part = a.part.checked_sub(1);
+    if part.is_some_and(|k| k >= TILE_PARTS || !renderer.tiles_parallel()) {
+        let why = format!(
+            "part {} of a tile: there are {TILE_PARTS}, of a stateless sampler's tiles only",
+            a.part - 1
+        );
+        return failure(why, false);
+    }
 
     let flag = cancelled.clone();
     let rendered = pool
@@ -81,7 +90,10 @@ pub async fn render_tile(
             }
             let started = std::time::Instant::now();
             // A stateless sampler's tile spreads its pixels over the pool.
-            let (film_tile, stats) = renderer.render_tile_parallel(TileId(tile), samples);
+            let (film_tile, stats) = match part {
+                Some(k) => renderer.render_part(TileId(tile), samples, k)?,
+                None => renderer.render_tile_parallel(TileId(tile), samples),
+            };
             Some((v1::FilmTile::from(&film_tile), v1::RayStats::from(&stats), started.elapsed()))
         })
         .await;

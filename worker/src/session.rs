@@ -403,6 +403,7 @@ mod tests {
             scene_hash: scene_hash.to_vec(),
             spp: 0,
             samples: None,
+            part: 0,
         };
         Ok(CoordinatorMessage { kind: Some(FromCoordinator::Assign(a)) })
     }

@@ -2,6 +2,7 @@
 
 use super::job::JobState;
 use super::{Assignment, Outbox, Record, Scheduler};
+use farm_common::film::TILE_PARTS;
 use farm_common::ids::{JobId, TileId, WorkerId};
 
 impl Scheduler {
@@ -75,6 +76,12 @@ impl Scheduler {
     /// again, so a slow or stalled worker does not hold up the end of the
     /// frame. The first result wins ([`Scheduler::tile_done`]); both are
     /// the same bits. A worker never gets a tile it holds or has failed.
+    ///
+    /// A job whose tiles render on all of a worker's threads (a stateless
+    /// sampler's) hands out such a tile's parts instead, one to each of the
+    /// next idle workers, so a costly tile left late on a slow worker is
+    /// rendered again in a quarter of the time; the parts' films added in
+    /// order are the tile's bits ([`Job::parts`]).
     fn speculate(&mut self, out: &mut impl Outbox) {
         if self.ready.is_empty() {
             return;
@@ -104,18 +111,44 @@ impl Scheduler {
                     }
                     // The oldest hand-out nobody renders again, that this
                     // worker neither holds nor has failed.
+                    let split = j.spec.parallel_tiles;
+                    // A split tile: the newest hand-out first (the likeliest
+                    // to end last), and only to a worker that renders a
+                    // part faster than the holder renders a tile.
                     let mut i = 0;
-                    while let Some(&t) = j.out_order.get(i) {
-                        if !j.in_flight.contains_key(&t) || j.spares.contains_key(&t) {
-                            j.out_order.remove(i);
+                    loop {
+                        let at = if split { j.out_order.len().checked_sub(i + 1) } else { Some(i) };
+                        let Some(at) = at else { break };
+                        let Some(&t) = j.out_order.get(at) else { break };
+                        let free = if split {
+                            j.parts.get(&t).map_or(Some(0), |p| p.free())
+                        } else {
+                            Some(0)
+                        };
+                        if !j.in_flight.contains_key(&t)
+                            || j.spares.contains_key(&t)
+                            || free.is_none()
+                        {
+                            j.out_order.remove(at);
                             continue;
                         }
                         let holder = j.in_flight[&t].0;
                         let failed_here =
                             j.failures.get(&t).is_some_and(|f| f.iter().any(|(fw, _)| *fw == wid));
-                        if holder != wid && !failed_here {
-                            j.out_order.remove(i);
-                            pick = Some((*jid, t));
+                        let pace = |w: &WorkerId| self.workers.get(w)?.pace.tile_seconds;
+                        let sooner = match (pace(&holder), pace(&wid)) {
+                            (Some(h), Some(w)) if split => w / f64::from(TILE_PARTS) <= h,
+                            _ => true,
+                        };
+                        if holder != wid && !failed_here && !j.holds_part(t, wid, None) && sooner {
+                            // A split tile stays in line until its last
+                            // part is out.
+                            let last = !split
+                                || j.parts.get(&t).map_or(TILE_PARTS, |p| p.free_count()) <= 1;
+                            if last {
+                                j.out_order.remove(at);
+                            }
+                            pick = Some((*jid, t, free.filter(|_| split)));
                             break;
                         }
                         i += 1;
@@ -124,8 +157,11 @@ impl Scheduler {
                         break;
                     }
                 }
-                let Some((jid, tile)) = pick else { break };
-                self.hand_out(jid, tile, wid, true, out);
+                match pick {
+                    Some((jid, tile, None)) => self.hand_out(jid, tile, wid, true, out),
+                    Some((jid, tile, Some(part))) => self.hand_out_part(jid, tile, part, wid, out),
+                    None => break,
+                }
             }
         }
     }
@@ -140,6 +176,7 @@ impl Scheduler {
         speculative: bool,
         out: &mut impl Outbox,
     ) {
+        let now = self.now();
         let j = self.jobs.get_mut(&job).expect("active job");
         let attempt = {
             let a = j.attempts.entry(tile).or_insert(0);
@@ -154,6 +191,7 @@ impl Scheduler {
         } else {
             j.in_flight.insert(tile, (wid, attempt));
             j.out_order.push_back(tile);
+            j.handed_at.insert(tile, now);
         }
         out.record(Record::HandedOut { job, tile: TileId(tile), n: attempt + 1 });
         let a = Assignment {
@@ -165,6 +203,42 @@ impl Scheduler {
             speculative,
             retry,
             samples: j.samples(),
+            part: None,
+        };
+        self.workers.get_mut(&wid).expect("worker").in_flight.insert((job, tile));
+        self.refresh_ready(wid);
+        out.assign(wid, a);
+    }
+
+    /// Hands part `part` of `tile` of `job` to worker `wid`, a spare of the
+    /// tile. Journals it (as a hand-out of the tile) and sends it.
+    fn hand_out_part(
+        &mut self,
+        job: JobId,
+        tile: u32,
+        part: u32,
+        wid: WorkerId,
+        out: &mut impl Outbox,
+    ) {
+        let j = self.jobs.get_mut(&job).expect("active job");
+        let attempt = {
+            let a = j.attempts.entry(tile).or_insert(0);
+            *a += 1;
+            *a - 1
+        };
+        j.parts.entry(tile).or_default().held[part as usize] = Some((wid, attempt));
+        j.speculated += 1;
+        out.record(Record::HandedOut { job, tile: TileId(tile), n: attempt + 1 });
+        let a = Assignment {
+            job,
+            tile: TileId(tile),
+            attempt,
+            scene_hash: j.spec.scene_hash.clone(),
+            spp: j.spec.spp_override,
+            speculative: true,
+            retry: false,
+            samples: j.samples(),
+            part: Some(part),
         };
         self.workers.get_mut(&wid).expect("worker").in_flight.insert((job, tile));
         self.refresh_ready(wid);

@@ -3,7 +3,9 @@
 
 use super::{FinishedJob, JobUpdate};
 use crate::merge::Film;
-use farm_common::film::{FilmGeometry, PassEnd, PassPlan, PassStop, SampleRange};
+use farm_common::film::{
+    FilmGeometry, FilmTile, PassEnd, PassPlan, PassStop, SampleRange, TILE_PARTS,
+};
 use farm_common::ids::{JobId, WorkerId};
 use farm_common::stats::RayStats;
 use std::collections::{HashMap, HashSet, VecDeque};
@@ -115,7 +117,15 @@ pub(super) struct Job {
     /// both render the same bits (a tile's samples depend on its index
     /// only).
     pub(super) spares: HashMap<u32, (WorkerId, u32)>,
-    /// Spares handed out so far.
+    /// Spare hand-outs of a tile in flight split into its parts, for a job
+    /// whose tiles render on all of a worker's threads (a stateless
+    /// sampler's): idle workers each take a part, and once every part is
+    /// in, the parts' films added in order are the tile's, bit for bit.
+    /// The first of the tile's holder and its parts to finish wins.
+    pub(super) parts: HashMap<u32, Parts>,
+    /// When each tile in flight was handed to its holder.
+    pub(super) handed_at: HashMap<u32, Instant>,
+    /// Spares handed out so far (each part counts).
     pub(super) speculated: u32,
     pub(super) attempts: HashMap<u32, u32>,
     pub(super) failures: HashMap<u32, Vec<(WorkerId, String)>>,
@@ -154,6 +164,8 @@ impl Job {
             in_flight: HashMap::new(),
             out_order: VecDeque::new(),
             spares: HashMap::new(),
+            parts: HashMap::new(),
+            handed_at: HashMap::new(),
             speculated: 0,
             attempts: HashMap::new(),
             failures: HashMap::new(),
@@ -186,15 +198,64 @@ impl Job {
         self.spec.passes.as_ref().is_some_and(|p| self.pass as usize + 1 < p.totals.len())
     }
 
-    /// Forgets every hand-out of `tile`; returns their workers.
+    /// Forgets every hand-out of `tile`, its parts' too; returns their
+    /// workers.
     pub(super) fn drop_holders(&mut self, tile: u32) -> Vec<WorkerId> {
         let spare = self.spares.remove(&tile);
-        self.in_flight.remove(&tile).into_iter().chain(spare).map(|(w, _)| w).collect()
+        self.handed_at.remove(&tile);
+        let parts = self.parts.remove(&tile).map(|p| p.held).unwrap_or_default();
+        let parts = parts.into_iter().flatten();
+        self.in_flight.remove(&tile).into_iter().chain(spare).chain(parts).map(|(w, _)| w).collect()
+    }
+
+    /// Takes part `k` of `tile`'s film (checked by the film); once every
+    /// part is in, returns their films added in part order into a zero
+    /// film, the tile's bits, and their rays.
+    pub(super) fn part_done(
+        &mut self,
+        tile: u32,
+        k: usize,
+        film: FilmTile,
+        stats: RayStats,
+    ) -> Option<(FilmTile, RayStats)> {
+        let p = self.parts.get_mut(&tile)?;
+        p.held[k] = None;
+        p.films[k] = Some(film);
+        p.stats.add(&stats);
+        if p.films.iter().any(Option::is_none) {
+            return None;
+        }
+        let p = self.parts.remove(&tile)?;
+        let mut whole = FilmTile::new(p.films[0].as_ref()?.pixel_bounds);
+        for f in p.films.iter().flatten() {
+            whole.merge(f);
+        }
+        Some((whole, p.stats))
+    }
+
+    /// Whether `worker` holds a part of `tile`, as hand-out `attempt` if
+    /// given.
+    pub(super) fn holds_part(&self, tile: u32, worker: WorkerId, attempt: Option<u32>) -> bool {
+        self.parts.get(&tile).is_some_and(|p| {
+            p.held.iter().flatten().any(|&(w, a)| w == worker && attempt.is_none_or(|x| x == a))
+        })
     }
 
     /// Forgets `worker`'s hand-out of `tile`; returns whether another
-    /// worker still holds the tile (it becomes the tile's holder).
+    /// worker still holds the whole tile (it becomes the tile's holder).
+    /// A part's hand-out frees its part for another idle worker.
     pub(super) fn drop_holder(&mut self, tile: u32, worker: WorkerId) -> bool {
+        if let Some(p) = self.parts.get_mut(&tile) {
+            for h in &mut p.held {
+                if h.is_some_and(|(w, _)| w == worker) {
+                    *h = None;
+                    if !self.out_order.contains(&tile) {
+                        self.out_order.push_front(tile);
+                    }
+                    return self.in_flight.contains_key(&tile);
+                }
+            }
+        }
         if self.spares.get(&tile).is_some_and(|(w, _)| *w == worker) {
             self.spares.remove(&tile);
         } else if self.in_flight.get(&tile).is_some_and(|(w, _)| *w == worker) {
@@ -204,6 +265,34 @@ impl Job {
             }
         }
         self.in_flight.contains_key(&tile)
+    }
+}
+
+/// A tile's parts out as spares ([`Job::parts`]).
+#[derive(Debug, Default)]
+pub(super) struct Parts {
+    /// Each part's hand-out (worker, attempt) while it renders.
+    pub held: [Option<(WorkerId, u32)>; TILE_PARTS as usize],
+    /// Each part's film once in.
+    pub films: [Option<FilmTile>; TILE_PARTS as usize],
+    /// The rays of the parts in.
+    pub stats: RayStats,
+}
+
+impl Parts {
+    /// Whether part `k` is neither held nor in.
+    fn is_free(&self, k: u32) -> bool {
+        self.held[k as usize].is_none() && self.films[k as usize].is_none()
+    }
+
+    /// The first part neither held nor in.
+    pub fn free(&self) -> Option<u32> {
+        (0..TILE_PARTS).find(|&k| self.is_free(k))
+    }
+
+    /// How many parts are neither held nor in.
+    pub fn free_count(&self) -> u32 {
+        (0..TILE_PARTS).filter(|&k| self.is_free(k)).count() as u32
     }
 }
 

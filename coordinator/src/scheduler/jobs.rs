@@ -60,7 +60,9 @@ impl Scheduler {
         self.jobs.get(&key.job).is_some_and(|j| {
             let h = Some(&(worker, key.attempt));
             j.state.is_active()
-                && (j.in_flight.get(&key.tile.0) == h || j.spares.get(&key.tile.0) == h)
+                && (j.in_flight.get(&key.tile.0) == h
+                    || j.spares.get(&key.tile.0) == h
+                    || j.holds_part(key.tile.0, worker, Some(key.attempt)))
         })
     }
 
@@ -106,44 +108,27 @@ impl Scheduler {
         self.release(worker, job, tile.0);
         let now = self.now();
         let j = self.jobs.get_mut(&job).expect("held tiles belong to known jobs");
+        let part = j
+            .parts
+            .get(&tile.0)
+            .and_then(|p| p.held.iter().position(|h| *h == Some((worker, key.attempt))));
+        // A whole tile from its holder times the worker's pace.
+        let from_holder = j.in_flight.get(&tile.0) == Some(&(worker, key.attempt));
+        if j.spec.parallel_tiles && from_holder {
+            let handed = j.handed_at.get(&tile.0).copied();
+            if let (Some(handed), Some(w)) = (handed, self.workers.get_mut(&worker)) {
+                w.pace.tile_done(handed, now);
+            }
+        }
         let film = j.film.as_mut().expect("active jobs have a film");
         match film.check(tile, &film_tile) {
             Ok(Accepted::New) => {
-                let key = TileId(j.pass.saturating_mul(j.spec.geometry.tile_count()) + tile.0);
-                out.record(Record::Merged { job, tile: key, film_tile: &film_tile, stats: &stats });
-                film.insert(tile, film_tile);
-                let complete = film.is_complete();
-                let others = j.drop_holders(tile.0);
-                j.stats.add(&stats);
-                j.done_tiles += 1;
-                if let Some(w) = self.workers.get_mut(&worker) {
-                    w.tiles_done += 1;
-                }
-                // Progress goes out every 0.5% of the tiles or 100 ms, not per tile.
-                let total = j.spec.geometry.tile_count();
-                let step = (total / 200).max(1);
-                if j.done_tiles == total
-                    || j.done_tiles.is_multiple_of(step)
-                    || now.duration_since(j.last_progress) >= PROGRESS_EVERY
-                {
-                    j.last_progress = now;
-                    let workers: HashSet<WorkerId> =
-                        j.in_flight.values().map(|(w, _)| *w).collect();
-                    let update = JobUpdate::Progress {
-                        done: j.done_tiles,
-                        total,
-                        workers: workers.len() as u32,
-                        stats: j.stats,
-                    };
-                    out.notify(job, update);
-                }
-                // The other hand-out of a speculated tile is no longer
-                // needed: its slot is free (its late answer is ignored).
-                for w in others.into_iter().filter(|w| *w != worker) {
-                    self.release(w, job, tile.0);
-                }
-                if complete {
-                    self.end_pass(job, out);
+                let whole = match part {
+                    Some(k) => j.part_done(tile.0, k, film_tile, stats),
+                    None => Some((film_tile, stats)),
+                };
+                if let Some((film_tile, stats)) = whole {
+                    self.merge_new(worker, job, tile, film_tile, stats, out);
                 }
             }
             Ok(Accepted::Duplicate) => {
@@ -164,6 +149,59 @@ impl Scheduler {
             }
         }
         self.fill(out);
+    }
+
+    /// Merges a tile result the film found new (a whole tile, or its parts
+    /// added up), from `worker`: journals it, counts it, tells watchers,
+    /// frees the tile's other hand-outs and ends the pass when it was the
+    /// last.
+    fn merge_new(
+        &mut self,
+        worker: WorkerId,
+        job: JobId,
+        tile: TileId,
+        film_tile: FilmTile,
+        stats: RayStats,
+        out: &mut impl Outbox,
+    ) {
+        let now = self.now();
+        let j = self.jobs.get_mut(&job).expect("held tiles belong to known jobs");
+        let film = j.film.as_mut().expect("active jobs have a film");
+        let key = TileId(j.pass.saturating_mul(j.spec.geometry.tile_count()) + tile.0);
+        out.record(Record::Merged { job, tile: key, film_tile: &film_tile, stats: &stats });
+        film.insert(tile, film_tile);
+        let complete = film.is_complete();
+        let others = j.drop_holders(tile.0);
+        j.stats.add(&stats);
+        j.done_tiles += 1;
+        if let Some(w) = self.workers.get_mut(&worker) {
+            w.tiles_done += 1;
+        }
+        // Progress goes out every 0.5% of the tiles or 100 ms, not per tile.
+        let total = j.spec.geometry.tile_count();
+        let step = (total / 200).max(1);
+        if j.done_tiles == total
+            || j.done_tiles.is_multiple_of(step)
+            || now.duration_since(j.last_progress) >= PROGRESS_EVERY
+        {
+            j.last_progress = now;
+            let workers: HashSet<WorkerId> = j.in_flight.values().map(|(w, _)| *w).collect();
+            let update = JobUpdate::Progress {
+                done: j.done_tiles,
+                total,
+                workers: workers.len() as u32,
+                stats: j.stats,
+            };
+            out.notify(job, update);
+        }
+        // The other hand-out of a speculated tile is no longer
+        // needed: its slot is free (its late answer is ignored).
+        for w in others.into_iter().filter(|w| *w != worker) {
+            self.release(w, job, tile.0);
+        }
+        if complete {
+            self.end_pass(job, out);
+        }
     }
 
     /// A tile a worker could not render; only the holder of that hand-out
@@ -321,8 +359,10 @@ impl Scheduler {
         j.pending.clear();
         j.out_order.clear();
         let spares = j.spares.drain().map(|(_, (w, _))| w);
+        let parts: Vec<WorkerId> =
+            j.parts.drain().flat_map(|(_, p)| p.held).flatten().map(|(w, _)| w).collect();
         let holders: HashSet<WorkerId> =
-            j.in_flight.drain().map(|(_, (w, _))| w).chain(spares).collect();
+            j.in_flight.drain().map(|(_, (w, _))| w).chain(spares).chain(parts).collect();
         for w in holders {
             out.cancel(w, job);
             if let Some(wk) = self.workers.get_mut(&w) {

@@ -12,6 +12,8 @@ mod job;
 mod jobs;
 mod outbox;
 #[cfg(test)]
+mod part_tests;
+#[cfg(test)]
 mod pass_tests;
 mod passes;
 #[cfg(test)]

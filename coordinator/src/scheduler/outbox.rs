@@ -28,6 +28,11 @@ pub struct Assignment {
     /// The samples of each pixel to take, when the job renders in passes;
     /// `None`: all of them.
     pub samples: Option<SampleRange>,
+    /// One part of the tile (below `farm_common::film::TILE_PARTS`) rather
+    /// than all of it: a spare hand-out of a tile whose sampler is
+    /// stateless, shared by idle workers at the end of a pass. Its result
+    /// is that part's film (`Renderer::render_part`).
+    pub part: Option<u32>,
 }
 
 impl Assignment {

@@ -12,7 +12,7 @@ use std::time::{Duration, Instant};
 
 #[derive(Default)]
 pub(super) struct Recorder {
-    assigned: Vec<(WorkerId, Assignment)>,
+    pub(super) assigned: Vec<(WorkerId, Assignment)>,
     pub(super) cancelled: Vec<(WorkerId, JobId)>,
     disconnected: Vec<WorkerId>,
     pub(super) updates: Vec<(JobId, JobUpdate)>,

@@ -28,6 +28,31 @@ pub(super) struct Worker {
     pub(super) joined: Instant,
     /// Tiles it failed or sent back malformed.
     pub(super) failures: u64,
+    /// How fast it renders a tile on all its threads.
+    pub(super) pace: Pace,
+}
+
+/// How fast a worker renders tiles one after another on all its threads
+/// (a job whose tiles render in parallel): what the end of a frame needs
+/// to know whether a part of a late tile would come back sooner from this
+/// worker than the whole tile from its holder.
+#[derive(Clone, Copy, Debug, Default)]
+pub(super) struct Pace {
+    /// When its last whole tile came back.
+    pub last_done: Option<Instant>,
+    /// Seconds a tile, a moving average (none before its first tile).
+    pub tile_seconds: Option<f64>,
+}
+
+impl Pace {
+    /// A whole tile handed out at `handed` came back `now`: it rendered
+    /// from then or from the tile before it, whichever was later.
+    pub fn tile_done(&mut self, handed: Instant, now: Instant) {
+        let start = self.last_done.map_or(handed, |l| l.max(handed));
+        let d = now.saturating_duration_since(start).as_secs_f64();
+        self.tile_seconds = Some(self.tile_seconds.map_or(d, |s| 0.75 * s + 0.25 * d));
+        self.last_done = Some(now);
+    }
 }
 
 /// A worker row of `farm status`.
@@ -61,6 +86,7 @@ impl Scheduler {
         let max_in_flight = max_in_flight.clamp(1, self.config.max_in_flight.max(1));
         info!(worker = id.0, %name, threads, max_in_flight, "worker joined");
         let w = Worker {
+            pace: Pace::default(),
             name,
             threads,
             max_in_flight,
@@ -85,7 +111,8 @@ impl Scheduler {
         for (job, tile) in lost.into_iter().rev() {
             if let Some(j) = self.jobs.get_mut(&job) {
                 let held = j.in_flight.get(&tile).is_some_and(|(wk, _)| *wk == id)
-                    || j.spares.get(&tile).is_some_and(|(wk, _)| *wk == id);
+                    || j.spares.get(&tile).is_some_and(|(wk, _)| *wk == id)
+                    || j.holds_part(tile, id, None);
                 if held && !j.drop_holder(tile, id) {
                     j.pending.push_front(tile);
                 }

@@ -125,6 +125,7 @@ impl Outbox for GrpcOutbox {
                     second_from: r.second_from,
                     own_halves: r.own_halves,
                 }),
+                part: a.part.map_or(0, |k| k + 1),
             })),
         };
         if let Some(tx) = self.workers.get(&worker) {

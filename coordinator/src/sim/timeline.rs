@@ -4,11 +4,11 @@
 
 use super::{SimConfig, SimReport};
 use crate::scheduler::{Assignment, JobSpec, JobUpdate, Outbox, Owner, Scheduler, SchedulerConfig};
-use farm_common::film::{FilmGeometry, FilmTile};
+use farm_common::film::{FilmGeometry, FilmTile, TILE_PARTS};
 use farm_common::ids::{JobId, WorkerId};
 use farm_common::stats::RayStats;
 use std::cmp::Reverse;
-use std::collections::{BinaryHeap, HashMap, VecDeque};
+use std::collections::{BinaryHeap, HashMap, HashSet, VecDeque};
 use std::time::{Duration, Instant};
 
 /// What happens next in virtual time.
@@ -83,6 +83,10 @@ pub(super) struct Sim {
     base: Instant,
     in_scheduler: Duration,
     merged_at: Vec<u64>,
+    /// Part hand-outs on their way or rendering: (job, tile, attempt).
+    parts_out: HashSet<(u64, u32, u32)>,
+    /// Parts in, per (job, tile).
+    parts_in: HashMap<(u64, u32), u32>,
     handed_out: u64,
     in_transit: HashMap<u64, Assignment>,
     next_transit: u64,
@@ -130,6 +134,8 @@ impl Sim {
             base: Instant::now(),
             in_scheduler: Duration::ZERO,
             merged_at: Vec::with_capacity(total),
+            parts_out: HashSet::new(),
+            parts_in: HashMap::new(),
             handed_out: 0,
             in_transit: HashMap::new(),
             next_transit: 0,
@@ -166,7 +172,12 @@ impl Sim {
     /// A hand-out reaches its worker.
     fn receive(&mut self, w: u32, a: Assignment) {
         if self.config.parallel_tiles {
-            let cost = self.costs[a.tile.0 as usize];
+            let mut cost = self.costs[a.tile.0 as usize];
+            if a.part.is_some() {
+                // A part is a quarter of the tile's samples.
+                cost /= f64::from(TILE_PARTS);
+                self.parts_out.insert((a.job.0, a.tile.0, a.attempt));
+            }
             let wk = &mut self.workers[w as usize];
             if wk.dead || wk.stalled {
                 return;
@@ -216,7 +227,16 @@ impl Sim {
         };
         let ft = FilmTile::new(self.geometry.tile_pixel_bounds(key.tile));
         let now = self.now;
-        self.merged_at.push(now);
+        // A tile is in when its whole film or its last part arrives.
+        if self.parts_out.remove(&(job, tile, attempt)) {
+            let n = self.parts_in.entry((job, tile)).or_default();
+            *n += 1;
+            if *n == TILE_PARTS {
+                self.merged_at.push(now);
+            }
+        } else {
+            self.merged_at.push(now);
+        }
         self.call(|s, out, at| {
             s.heard_from(WorkerId(u64::from(worker)), at);
             s.tile_done(WorkerId(u64::from(worker)), key, ft, RayStats::default(), out)
