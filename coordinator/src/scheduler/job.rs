@@ -125,6 +125,11 @@ pub(super) struct Job {
     pub(super) parts: HashMap<u32, Parts>,
     /// When each tile in flight was handed to its holder.
     pub(super) handed_at: HashMap<u32, Instant>,
+    /// Hand-outs (worker, tile, attempt) of tiles another hand-out
+    /// finished first: their workers are still rendering them, so their
+    /// slots stay taken until they answer (the answer is ignored) or the
+    /// pass ends.
+    pub(super) superseded: HashSet<(WorkerId, u32, u32)>,
     /// Spares handed out so far (each part counts).
     pub(super) speculated: u32,
     pub(super) attempts: HashMap<u32, u32>,
@@ -166,6 +171,7 @@ impl Job {
             spares: HashMap::new(),
             parts: HashMap::new(),
             handed_at: HashMap::new(),
+            superseded: HashSet::new(),
             speculated: 0,
             attempts: HashMap::new(),
             failures: HashMap::new(),
@@ -200,12 +206,12 @@ impl Job {
 
     /// Forgets every hand-out of `tile`, its parts' too; returns their
     /// workers.
-    pub(super) fn drop_holders(&mut self, tile: u32) -> Vec<WorkerId> {
+    pub(super) fn drop_holders(&mut self, tile: u32) -> Vec<(WorkerId, u32)> {
         let spare = self.spares.remove(&tile);
         self.handed_at.remove(&tile);
         let parts = self.parts.remove(&tile).map(|p| p.held).unwrap_or_default();
         let parts = parts.into_iter().flatten();
-        self.in_flight.remove(&tile).into_iter().chain(spare).chain(parts).map(|(w, _)| w).collect()
+        self.in_flight.remove(&tile).into_iter().chain(spare).chain(parts).collect()
     }
 
     /// Takes part `k` of `tile`'s film (checked by the film); once every

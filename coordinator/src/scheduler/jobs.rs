@@ -66,6 +66,16 @@ impl Scheduler {
         })
     }
 
+    /// A worker answered a hand-out another finished first: its slot is
+    /// free now.
+    fn answered_superseded(&mut self, worker: WorkerId, key: TileAttempt, out: &mut impl Outbox) {
+        let moot = (worker, key.tile.0, key.attempt);
+        if self.jobs.get_mut(&key.job).is_some_and(|j| j.superseded.remove(&moot)) {
+            self.release(worker, key.job, key.tile.0);
+            self.fill(out);
+        }
+    }
+
     /// Logs why an answer from `worker` to `key` was ignored.
     fn ignored(&self, worker: WorkerId, key: TileAttempt, what: &str) {
         let (job, tile, attempt) = (key.job.0, key.tile.0, key.attempt);
@@ -102,6 +112,7 @@ impl Scheduler {
     ) {
         if !self.holds(worker, key) {
             self.ignored(worker, key, "tile result");
+            self.answered_superseded(worker, key, out);
             return;
         }
         let (job, tile) = (key.job, key.tile);
@@ -194,10 +205,19 @@ impl Scheduler {
             };
             out.notify(job, update);
         }
-        // The other hand-out of a speculated tile is no longer
-        // needed: its slot is free (its late answer is ignored).
-        for w in others.into_iter().filter(|w| *w != worker) {
-            self.release(w, job, tile.0);
+        // The tile's other hand-outs are no longer needed, but their
+        // workers are still rendering them: their slots stay taken until
+        // they answer (the answer is ignored), or free now at the end of
+        // the pass.
+        let others = others.into_iter().filter(|(w, _)| *w != worker);
+        if complete {
+            let old: Vec<_> = j.superseded.drain().map(|(w, t, _)| (w, t)).collect();
+            let now_moot = others.map(|(w, _)| (w, tile.0));
+            for (w, t) in old.into_iter().chain(now_moot).collect::<Vec<_>>() {
+                self.release(w, job, t);
+            }
+        } else {
+            j.superseded.extend(others.map(|(w, a)| (w, tile.0, a)));
         }
         if complete {
             self.end_pass(job, out);
@@ -216,6 +236,7 @@ impl Scheduler {
     ) {
         if !self.holds(worker, key) {
             self.ignored(worker, key, "tile failure");
+            self.answered_superseded(worker, key, out);
             return;
         }
         self.release(worker, key.job, key.tile.0);

@@ -34,9 +34,9 @@ fn parallel() -> JobSpec {
     JobSpec { parallel_tiles: true, ..spec(0) }
 }
 
-/// Answers every hand-out with its tile's film, but worker 1's first
-/// tile (never answered) and the parts handed out, until nothing is left
-/// to answer: worker 1's tile and the parts of it handed out.
+/// Answers every hand-out in turn, but worker 1's first tile (never
+/// answered) and its parts, until nothing is left to answer: returns that
+/// tile and the parts of it handed out.
 fn all_but_the_late_tile(
     s: &mut Scheduler,
     out: &mut Recorder,
@@ -46,17 +46,18 @@ fn all_but_the_late_tile(
     let mut queue = out.take();
     while !queue.is_empty() {
         let (w, a) = queue.remove(0);
+        let is_late = late.as_ref().is_some_and(|l: &Assignment| l.tile == a.tile);
         match (w, a.part) {
             (WorkerId(1), None) if late.is_none() => late = Some(a),
-            (_, Some(_)) => parts.push((w, a)),
+            (_, Some(_)) if is_late => parts.push((w, a)),
+            // A part of another tile, answered after its holder's tile
+            // (ignored, but its worker is free again).
+            (_, Some(k)) => s.tile_done(w, a.key(), part(g, a.tile, k), RayStats::default(), out),
             _ => s.tile_done(w, a.key(), render(g, a.tile), RayStats::default(), out),
         }
         queue.extend(out.take());
     }
-    let late = late.expect("worker 1 got a tile");
-    // Parts of tiles since merged are moot.
-    parts.retain(|(_, a)| a.tile == late.tile);
-    (late, parts)
+    (late.expect("worker 1 got a tile"), parts)
 }
 
 #[test]
@@ -140,4 +141,44 @@ fn a_part_whose_worker_leaves_goes_to_another_and_a_whole_answer_still_wins() {
     let (w, a) = parts.remove(0);
     s.tile_done(w, a.key(), part(&g, a.tile, a.part.unwrap()), RayStats::default(), &mut out);
     assert_eq!(s.job_state(job), Some(&JobState::Done));
+}
+
+/// A worker whose tile another finished first is still rendering it: its
+/// slot stays taken, so it is not sent more work to queue behind the moot
+/// tile, until it answers (the answer is ignored).
+#[test]
+fn a_hand_out_finished_elsewhere_keeps_its_slot_until_it_answers() {
+    let g = geometry();
+    let now = Instant::now();
+    let mut s = Scheduler::new(SchedulerConfig::default());
+    let mut out = Recorder::default();
+    for w in 1..=3 {
+        s.worker_joined(WorkerId(w), format!("w{w}"), 1, 1, now, &mut out);
+    }
+    let job = s.submit(spec(0), &mut out);
+    // Workers 1 and 3 keep their first tiles; worker 2 renders the rest,
+    // then worker 1's tile again (the oldest hand-out), and answers it.
+    let mut held = Vec::new();
+    let mut queue = out.take();
+    let mut spare_of_1 = None;
+    while !queue.is_empty() {
+        let (w, a) = queue.remove(0);
+        if w != WorkerId(2) {
+            held.push((w, a));
+        } else if a.speculative && spare_of_1.is_none() {
+            spare_of_1 = Some(a.tile);
+            s.tile_done(w, a.key(), render(&g, a.tile), RayStats::default(), &mut out);
+            break;
+        } else {
+            s.tile_done(w, a.key(), render(&g, a.tile), RayStats::default(), &mut out);
+        }
+        queue.extend(out.take());
+    }
+    let (w1, a1) = held.iter().find(|(w, _)| *w == WorkerId(1)).cloned().expect("worker 1's tile");
+    assert_eq!(spare_of_1, Some(a1.tile));
+    assert_eq!(s.job_state(job), Some(&JobState::Running));
+    assert_eq!(s.workers[&w1].in_flight.len(), 1, "still rendering the moot tile");
+    assert!(out.take().iter().all(|(w, _)| *w != w1), "nothing queued behind it");
+    s.tile_done(w1, a1.key(), render(&g, a1.tile), RayStats::default(), &mut out);
+    assert!(s.workers[&w1].in_flight.is_empty(), "its answer frees the slot");
 }
