@@ -78,7 +78,9 @@ pub async fn render_tile(
             "part {} of a tile: there are {TILE_PARTS}, of a stateless sampler's tiles only",
             a.part - 1
         );
-        return failure(why, false);
+        // Retryable: the tile's holder renders it whole all the same, so
+        // the job need not fail for a part this worker cannot render.
+        return failure(why, true);
     }
 
     let flag = cancelled.clone();
