@@ -459,14 +459,21 @@ mod tests {
         s.to_worker.send(assign(2, 0, b"short")).await.unwrap();
         s.to_worker.send(assign(3, 0, &[0; 32])).await.unwrap();
         s.to_worker.send(assign(1, 99, &hash)).await.unwrap();
+        // A part of a tile whose sampler has state (the random sampler's)
+        // cannot be drawn apart: refused, retryable by the tile's holder.
+        let mut part = assign(1, 0, &hash);
+        if let Ok(CoordinatorMessage { kind: Some(FromCoordinator::Assign(a)) }) = &mut part {
+            a.part = 2;
+        }
+        s.to_worker.send(part).await.unwrap();
         let mut failures = Vec::new();
-        for _ in 0..3 {
+        for _ in 0..4 {
             let r = next_result(&mut s).await;
             let Some(Outcome::Failure(f)) = r.outcome else { panic!("{r:?}") };
             failures.push((r.job_id, f.retryable));
         }
         failures.sort();
-        assert_eq!(failures, vec![(1, false), (2, false), (3, false)]);
+        assert_eq!(failures, vec![(1, false), (1, true), (2, false), (3, false)]);
 
         // A cancelled job's tiles are not reported once the cancel arrives;
         // later jobs still are. (Tiles finished before it may be.)
