@@ -59,7 +59,7 @@ impl Scheduler {
                         j.state = JobState::Running;
                         j.started = Some(now);
                     }
-                    self.hand_out(*jid, tile, wid, false, out);
+                    self.hand_out(*jid, tile, wid, HandOut::Holder, out);
                     assigned = true;
                     break;
                 }
@@ -158,22 +158,24 @@ impl Scheduler {
                     }
                 }
                 match pick {
-                    Some((jid, tile, None)) => self.hand_out(jid, tile, wid, true, out),
-                    Some((jid, tile, Some(part))) => self.hand_out_part(jid, tile, part, wid, out),
+                    Some((jid, tile, None)) => self.hand_out(jid, tile, wid, HandOut::Spare, out),
+                    Some((jid, tile, Some(k))) => {
+                        self.hand_out(jid, tile, wid, HandOut::Part(k), out)
+                    }
                     None => break,
                 }
             }
         }
     }
 
-    /// Hands `tile` of `job` to worker `wid`: as the tile's holder, or as
-    /// its spare when `speculative`. Journals it and sends it.
+    /// Hands `tile` of `job` to worker `wid`, `how`. Journals it and sends
+    /// it.
     fn hand_out(
         &mut self,
         job: JobId,
         tile: u32,
         wid: WorkerId,
-        speculative: bool,
+        how: HandOut,
         out: &mut impl Outbox,
     ) {
         let now = self.now();
@@ -183,15 +185,22 @@ impl Scheduler {
             *a += 1;
             *a - 1
         };
+        let speculative = how != HandOut::Holder;
         let retry = !speculative && !j.handed.insert(tile);
         j.retries += u32::from(retry);
-        if speculative {
-            j.spares.insert(tile, (wid, attempt));
-            j.speculated += 1;
-        } else {
-            j.in_flight.insert(tile, (wid, attempt));
-            j.out_order.push_back(tile);
-            j.handed_at.insert(tile, now);
+        j.speculated += u32::from(speculative);
+        match how {
+            HandOut::Holder => {
+                j.in_flight.insert(tile, (wid, attempt));
+                j.out_order.push_back(tile);
+                j.handed_at.insert(tile, now);
+            }
+            HandOut::Spare => {
+                j.spares.insert(tile, (wid, attempt));
+            }
+            HandOut::Part(k) => {
+                j.parts.entry(tile).or_default().held[k as usize] = Some((wid, attempt));
+            }
         }
         out.record(Record::HandedOut { job, tile: TileId(tile), n: attempt + 1 });
         let a = Assignment {
@@ -203,45 +212,24 @@ impl Scheduler {
             speculative,
             retry,
             samples: j.samples(),
-            part: None,
+            part: match how {
+                HandOut::Part(k) => Some(k),
+                _ => None,
+            },
         };
         self.workers.get_mut(&wid).expect("worker").in_flight.insert((job, tile));
         self.refresh_ready(wid);
         out.assign(wid, a);
     }
+}
 
-    /// Hands part `part` of `tile` of `job` to worker `wid`, a spare of the
-    /// tile. Journals it (as a hand-out of the tile) and sends it.
-    fn hand_out_part(
-        &mut self,
-        job: JobId,
-        tile: u32,
-        part: u32,
-        wid: WorkerId,
-        out: &mut impl Outbox,
-    ) {
-        let j = self.jobs.get_mut(&job).expect("active job");
-        let attempt = {
-            let a = j.attempts.entry(tile).or_insert(0);
-            *a += 1;
-            *a - 1
-        };
-        j.parts.entry(tile).or_default().held[part as usize] = Some((wid, attempt));
-        j.speculated += 1;
-        out.record(Record::HandedOut { job, tile: TileId(tile), n: attempt + 1 });
-        let a = Assignment {
-            job,
-            tile: TileId(tile),
-            attempt,
-            scene_hash: j.spec.scene_hash.clone(),
-            spp: j.spec.spp_override,
-            speculative: true,
-            retry: false,
-            samples: j.samples(),
-            part: Some(part),
-        };
-        self.workers.get_mut(&wid).expect("worker").in_flight.insert((job, tile));
-        self.refresh_ready(wid);
-        out.assign(wid, a);
-    }
+/// How a tile goes out.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum HandOut {
+    /// To its holder, from the queue.
+    Holder,
+    /// A second hand-out of a tile still out (speculation).
+    Spare,
+    /// One part of a tile still out (speculation, split).
+    Part(u32),
 }
