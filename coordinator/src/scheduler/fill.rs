@@ -162,6 +162,9 @@ impl Scheduler {
                     Some((jid, tile, Some(k))) => {
                         self.hand_out(jid, tile, wid, HandOut::Part(k), out)
                     }
+                    // Once no job has a tile left to speculate, no other
+                    // idle worker can get one either.
+                    None if order.iter().all(|id| self.jobs[id].out_order.is_empty()) => return,
                     None => break,
                 }
             }
