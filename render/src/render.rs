@@ -347,7 +347,9 @@ impl Renderer {
         // A stateless sampler's tile sums a part (a band of rows) at a
         // time, as `render_pixels_parallel` and `render_part` do.
         let rows = TILE_SIZE / TILE_PARTS as i32;
-        let mut part = tile.clone();
+        // (A sampler with state splats straight into the tile.)
+        let mut part =
+            FilmTile::new(if stateless { tile.pixel_bounds } else { Bounds2i::default() });
         let mut band = 0;
         for pixel in bounds.iter() {
             if stateless && (pixel.y - bounds.min.y) / rows != band {

@@ -110,11 +110,11 @@ impl Scheduler {
                         continue;
                     }
                     // The oldest hand-out nobody renders again, that this
-                    // worker neither holds nor has failed.
+                    // worker neither holds nor has failed. A split tile:
+                    // the newest hand-out first (the likeliest to end
+                    // last), and only to a worker that renders a part no
+                    // slower than the holder renders a tile.
                     let split = j.spec.parallel_tiles;
-                    // A split tile: the newest hand-out first (the likeliest
-                    // to end last), and only to a worker that renders a
-                    // part faster than the holder renders a tile.
                     let mut i = 0;
                     loop {
                         let at = if split { j.out_order.len().checked_sub(i + 1) } else { Some(i) };

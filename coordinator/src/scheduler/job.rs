@@ -204,8 +204,8 @@ impl Job {
         self.spec.passes.as_ref().is_some_and(|p| self.pass as usize + 1 < p.totals.len())
     }
 
-    /// Forgets every hand-out of `tile`, its parts' too; returns their
-    /// workers.
+    /// Forgets every hand-out of `tile`, its parts' too; returns them
+    /// (worker, attempt).
     pub(super) fn drop_holders(&mut self, tile: u32) -> Vec<(WorkerId, u32)> {
         let spare = self.spares.remove(&tile);
         self.handed_at.remove(&tile);

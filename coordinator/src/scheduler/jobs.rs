@@ -210,18 +210,16 @@ impl Scheduler {
         // they answer (the answer is ignored), or free now at the end of
         // the pass.
         let others = others.into_iter().filter(|(w, _)| *w != worker);
-        if complete {
-            let old: Vec<_> = j.superseded.drain().map(|(w, t, _)| (w, t)).collect();
-            let now_moot = others.map(|(w, _)| (w, tile.0));
-            for (w, t) in old.into_iter().chain(now_moot).collect::<Vec<_>>() {
-                self.release(w, job, t);
-            }
-        } else {
+        if !complete {
             j.superseded.extend(others.map(|(w, a)| (w, tile.0, a)));
+            return;
         }
-        if complete {
-            self.end_pass(job, out);
+        let old: Vec<_> = j.superseded.drain().map(|(w, t, _)| (w, t)).collect();
+        let now_moot = others.map(|(w, _)| (w, tile.0));
+        for (w, t) in old.into_iter().chain(now_moot).collect::<Vec<_>>() {
+            self.release(w, job, t);
         }
+        self.end_pass(job, out);
     }
 
     /// A tile a worker could not render; only the holder of that hand-out
