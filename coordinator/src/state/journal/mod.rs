@@ -6,9 +6,14 @@
 //! transaction (WAL, `synchronous = NORMAL`: a commit survives the process
 //! being killed; only the OS losing power can lose the last few). Reads
 //! that must see earlier writes (a finished job's image) go down the same
-//! channel, so they are answered in order.
+//! channel, so they are answered in order. Accepted tiles are the bulk of
+//! what is written; they go to a log file per active job beside the
+//! database ([`tiles`]), handed to the OS before the batch's commit.
 
 mod restore;
+mod tiles;
+
+use tiles::TileLogs;
 
 use super::StateError;
 use crate::scheduler::{JobSpec, JobState, JobUpdate, Record};
@@ -220,11 +225,19 @@ impl Journal {
         conn.pragma_update(None, "journal_mode", "WAL").map_err(StateError::db)?;
         conn.pragma_update(None, "synchronous", "NORMAL").map_err(StateError::db)?;
         conn.execute_batch(SCHEMA).map_err(StateError::db)?;
-        let restored = restore::restore(&conn).map_err(StateError::db)?;
+        let tile_dir = db.map(|p| p.with_extension("tiles"));
+        let mut logs = TileLogs::open(tile_dir.clone()).map_err(|e| {
+            let dir = tile_dir.unwrap_or_default();
+            StateError::Io(format!("cannot create {}", dir.display()), e)
+        })?;
+        let restored = restore::restore(&conn, &logs).map_err(StateError::db)?;
+        let active: Vec<u64> =
+            restored.jobs.iter().filter(|j| j.ending.is_none()).map(|j| j.id).collect();
+        logs.remove_all_but(&active);
         let (tx, rx) = mpsc::channel();
         std::thread::Builder::new()
             .name("farm-journal".into())
-            .spawn(move || writer(conn, rx))
+            .spawn(move || writer(conn, logs, rx))
             .map_err(|e| StateError::Io("cannot start the journal's thread".into(), e))?;
         Ok((Journal { tx }, restored))
     }
@@ -277,7 +290,7 @@ impl Journal {
     }
 }
 
-fn writer(mut conn: Connection, rx: mpsc::Receiver<Command>) {
+fn writer(mut conn: Connection, mut logs: TileLogs, rx: mpsc::Receiver<Command>) {
     while let Ok(first) = rx.recv() {
         let mut batch = vec![first];
         while batch.len() < 1024 {
@@ -287,16 +300,27 @@ fn writer(mut conn: Connection, rx: mpsc::Receiver<Command>) {
             }
         }
         let n = batch.len();
-        let mut replies = Vec::new();
+        let (mut replies, mut ended) = (Vec::new(), Vec::new());
         let result = (|| -> rusqlite::Result<()> {
             let tx = conn.transaction()?;
             for c in batch {
-                apply(&tx, c, &mut replies)?;
+                if let Command::Merged { job, tile, data } = &c {
+                    logs.append(*job, *tile, data);
+                    continue;
+                }
+                apply(&tx, c, &mut replies, &mut ended)?;
             }
+            // Tiles reach the OS before the commit that could end their job.
+            logs.flush();
             tx.commit()
         })();
         if let Err(e) = result {
             error!(error = %e, changes = n, "the journal could not commit: these changes are not durable");
+        }
+        // An ended job's tiles go once its ending is committed: a crash in
+        // between leaves a log that the next start deletes.
+        for job in ended {
+            logs.remove(job);
         }
         // Answers go out after the commit, so a flush means "on disk".
         for r in replies {
@@ -312,6 +336,7 @@ fn apply(
     tx: &rusqlite::Transaction<'_>,
     c: Command,
     replies: &mut Vec<Reply>,
+    ended: &mut Vec<u64>,
 ) -> rusqlite::Result<()> {
     match c {
         Command::Submitted { id, spec, detach, blobs } => {
@@ -355,12 +380,8 @@ fn apply(
             )?
             .execute(params![job as i64, tile, n])?;
         }
-        Command::Merged { job, tile, data } => {
-            tx.prepare_cached(
-                "INSERT OR REPLACE INTO tiles (job, tile, data) VALUES (?1, ?2, ?3)",
-            )?
-            .execute(params![job as i64, tile, data])?;
-        }
+        // Appended to the job's tile log by the writer, not a row.
+        Command::Merged { .. } => {}
         Command::Ended { job, ending, image } => {
             let (state, reason) = match ending {
                 Ending::Done => ("done", None),
@@ -371,7 +392,9 @@ fn apply(
                 "UPDATE jobs SET state = ?2, reason = ?3, ended_at = ?4 WHERE id = ?1",
                 params![job as i64, state, reason, unix_now()],
             )?;
+            // Rows of tiles journalled before the tile logs.
             tx.execute("DELETE FROM tiles WHERE job = ?1", params![job as i64])?;
+            ended.push(job);
             let mut st = tx.prepare_cached(
                 "INSERT OR REPLACE INTO images (job, seq, event) VALUES (?1, ?2, ?3)",
             )?;
@@ -394,6 +417,7 @@ fn apply(
                     tx.execute(&format!("DELETE FROM {table} WHERE job = ?1"), params![job])?;
                 }
                 tx.execute("DELETE FROM jobs WHERE id = ?1", params![job])?;
+                ended.push(job as u64);
             }
             let mut st = tx.prepare(
                 "SELECT hash FROM blobs WHERE stored_at < ?1

@@ -1,14 +1,16 @@
 //! Reading the journal back at start-up: the jobs with their states,
 //! shots and passes, the tiles merged so far, and the stored blobs.
 
+use super::tiles::TileLogs;
 use super::{Ending, Restored, SavedBlob, SavedJob};
 use crate::scheduler::{JobSpec, ShotFrame};
 use farm_common::film::{FilmTile, PassPlan};
 use farm_common::ids::JobId;
 use farm_common::stats::RayStats;
 use rusqlite::{params, Connection, OptionalExtension};
+use std::collections::BTreeMap;
 use tracing::error;
-pub(super) fn restore(conn: &Connection) -> rusqlite::Result<Restored> {
+pub(super) fn restore(conn: &Connection, logs: &TileLogs) -> rusqlite::Result<Restored> {
     let next_job: i64 = conn
         .query_row("SELECT value FROM meta WHERE key = 'next_job'", [], |r| r.get(0))
         .optional()?
@@ -61,12 +63,13 @@ pub(super) fn restore(conn: &Connection) -> rusqlite::Result<Restored> {
         };
         let mut tiles = Vec::new();
         if ending.is_none() {
-            let mut t =
-                conn.prepare_cached("SELECT tile, data FROM tiles WHERE job = ?1 ORDER BY tile")?;
-            for r in
-                t.query_map(params![id], |r| Ok((r.get::<_, u32>(0)?, r.get::<_, Vec<u8>>(1)?)))?
-            {
-                let (tile, data) = r?;
+            // Rows from before the tile logs, then the job's log.
+            let mut t = conn.prepare_cached("SELECT tile, data FROM tiles WHERE job = ?1")?;
+            let mut saved = t
+                .query_map(params![id], |r| Ok((r.get::<_, u32>(0)?, r.get::<_, Vec<u8>>(1)?)))?
+                .collect::<rusqlite::Result<BTreeMap<_, _>>>()?;
+            saved.extend(logs.read(id as u64));
+            for (tile, data) in saved {
                 match postcard::from_bytes::<(FilmTile, RayStats)>(&data) {
                     Ok((ft, stats)) => tiles.push((tile, ft, stats)),
                     Err(_) => error!(

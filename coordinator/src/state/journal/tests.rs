@@ -158,3 +158,49 @@ fn a_film_journalled_before_half_images_still_decodes() {
         assert_eq!(read.filename, "x.exr");
     }
 }
+
+/// Accepted tiles go to the job's tile log and come back in key order
+/// after a restart, with rows a journal from before the logs holds; the
+/// log goes when the job ends.
+#[tokio::test]
+async fn tiles_come_back_from_the_log_and_from_rows_written_before_it() {
+    use farm_common::film::FilmTile;
+    let dir = std::env::temp_dir().join(format!("farm-journal-tiles-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    let db = dir.join("state.db");
+    let tile = |k: u32| {
+        let mut t = FilmTile::new(Bounds2i::new(Point2i::new(0, 0), Point2i::new(2, 1)));
+        t.pixels[1].weight = k as f32;
+        t
+    };
+    let stats = RayStats { camera_rays: 3, ..Default::default() };
+    {
+        let (j, _) = Journal::open(Some(&db)).unwrap();
+        let s = spec(vec![[1u8; 32]]);
+        j.send(Command::Submitted { id: 4, detach: false, blobs: vec![], spec: Box::new(s) });
+        for k in [2, 0] {
+            j.send(Command::Merged { job: 4, tile: k, data: encode_tile(&tile(k), &stats) });
+        }
+        j.flush().await;
+    }
+    // A row as the journal stored tiles before (a later log record of the
+    // same key would win).
+    let conn = Connection::open(&db).unwrap();
+    conn.execute(
+        "INSERT INTO tiles (job, tile, data) VALUES (4, 1, ?1)",
+        params![encode_tile(&tile(1), &stats)],
+    )
+    .unwrap();
+    drop(conn);
+    let (j, restored) = Journal::open(Some(&db)).unwrap();
+    let tiles: Vec<_> =
+        restored.jobs[0].tiles.iter().map(|(k, t, s)| (*k, t.pixels[1].weight, *s)).collect();
+    assert_eq!(tiles, [(0, 0.0, stats), (1, 1.0, stats), (2, 2.0, stats)]);
+    let log = dir.join("state.tiles").join("4.log");
+    assert!(log.exists());
+    j.send(Command::Ended { job: 4, ending: Ending::Cancelled, image: vec![] });
+    j.flush().await;
+    assert!(!log.exists(), "an ended job's log is deleted");
+    std::fs::remove_dir_all(&dir).ok();
+}
