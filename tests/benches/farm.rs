@@ -99,8 +99,12 @@ fn cpu_seconds(pid: &str) -> Option<f64> {
     Some(ticks / 100.0)
 }
 
+/// `FARM_BIN` (to compare two builds in one sitting), else
 /// `target/release/farm` beside `target/release/deps/<this bench>`.
 fn farm_binary() -> Option<PathBuf> {
+    if let Some(p) = std::env::var_os("FARM_BIN") {
+        return Some(PathBuf::from(p));
+    }
     let exe = std::env::current_exe().ok()?;
     exe.ancestors().skip(1).take(2).map(|d| d.join("farm")).find(|p| p.is_file())
 }

@@ -209,7 +209,10 @@ impl std::fmt::Debug for Journal {
 
 /// Encodes a tile result for [`Command::Merged`].
 pub fn encode_tile(tile: &FilmTile, stats: &RayStats) -> Vec<u8> {
-    postcard::to_stdvec(&(tile, stats)).unwrap_or_default()
+    // Sized up front: grown as postcard writes, the 8 KB of a tile were
+    // reallocated a dozen times.
+    let room = 64 + tile.pixels.len() * std::mem::size_of::<farm_common::film::Pixel>();
+    postcard::to_extend(&(tile, stats), Vec::with_capacity(room)).unwrap_or_default()
 }
 
 impl Journal {
