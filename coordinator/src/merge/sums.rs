@@ -19,8 +19,8 @@ pub(super) struct Sums {
 /// `n` zero sums, written rather than left to the allocator's zero pages.
 /// `vec![0.0; n]` maps every page to the kernel's shared zero page, so the
 /// first tile merged into a page (a read, then a write) takes a second
-/// fault that copies it and flushes every core's TLB for it: a third of a
-/// coordinator's CPU per tile on a 2048² film. Writing the zeros up front
+/// fault that copies it and flushes every core's TLB for it: 15–20% of a
+/// coordinator's CPU on a 2048² film. Writing the zeros up front
 /// takes one fault a page.
 fn written_zeros(n: usize) -> Vec<[f32; 4]> {
     let mut v = Vec::with_capacity(n);

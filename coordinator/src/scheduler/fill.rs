@@ -150,9 +150,10 @@ impl Scheduler {
                         let holder = j.in_flight[&t].0;
                         let failed_here =
                             j.failures.get(&t).is_some_and(|f| f.iter().any(|(fw, _)| *fw == wid));
-                        let pace = |w: &WorkerId| self.workers.get(w)?.pace.tile_seconds;
-                        slowest = slowest.zip(pace(&holder)).map(|(s, h)| s.max(h));
-                        let sooner = match (pace(&holder), pace(&wid)) {
+                        let holder_pace =
+                            self.workers.get(&holder).and_then(|w| w.pace.tile_seconds);
+                        slowest = slowest.zip(holder_pace).map(|(s, h)| s.max(h));
+                        let sooner = match (holder_pace, own_pace) {
                             (Some(h), Some(w)) if split => w / f64::from(TILE_PARTS) <= h,
                             _ => true,
                         };

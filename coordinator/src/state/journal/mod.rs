@@ -307,11 +307,7 @@ fn writer(mut conn: Connection, mut logs: TileLogs, rx: mpsc::Receiver<Command>)
         let result = (|| -> rusqlite::Result<()> {
             let tx = conn.transaction()?;
             for c in batch {
-                if let Command::Merged { job, tile, data } = &c {
-                    logs.append(*job, *tile, data);
-                    continue;
-                }
-                apply(&tx, c, &mut replies, &mut ended)?;
+                apply(&tx, &mut logs, c, &mut replies, &mut ended)?;
             }
             // Tiles reach the OS before the commit that could end their job.
             logs.flush();
@@ -337,6 +333,7 @@ type Reply = Box<dyn FnOnce() + Send>;
 
 fn apply(
     tx: &rusqlite::Transaction<'_>,
+    logs: &mut TileLogs,
     c: Command,
     replies: &mut Vec<Reply>,
     ended: &mut Vec<u64>,
@@ -383,8 +380,7 @@ fn apply(
             )?
             .execute(params![job as i64, tile, n])?;
         }
-        // Appended to the job's tile log by the writer, not a row.
-        Command::Merged { .. } => {}
+        Command::Merged { job, tile, data } => logs.append(job, tile, &data),
         Command::Ended { job, ending, image } => {
             let (state, reason) = match ending {
                 Ending::Done => ("done", None),

@@ -21,13 +21,14 @@
 
 use std::collections::{BTreeMap, HashMap};
 use std::fs::File;
-use std::io::{BufWriter, Read, Seek, SeekFrom, Write};
+use std::io::{BufWriter, Read, Write};
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 use tracing::{error, warn};
 
 const MAGIC: &[u8; 8] = b"FARMTLG1";
-/// No record is larger: a tile is 8 KB, a run of parts' film the same.
+/// Far more than any record (a tile is about 8 KB): a longer length is a
+/// corrupt one, not allocated.
 const MAX_RECORD: u32 = 64 << 20;
 /// How often written logs are synced to the disk.
 const SYNC_EVERY: Duration = Duration::from_secs(1);
@@ -188,7 +189,6 @@ fn read_log(path: &Path) -> std::io::Result<BTreeMap<u32, Vec<u8>>> {
             "a tile log ends in an incomplete record (the process died writing it): cut off"
         );
         f.set_len(at as u64)?;
-        f.seek(SeekFrom::End(0))?;
     }
     Ok(tiles)
 }
