@@ -119,8 +119,8 @@ pub enum Record<'a> {
         job: JobId,
         /// How.
         state: &'a JobState,
-        /// The image of a finished job.
-        image: Option<&'a FinishedJob>,
+        /// The image of a finished job, shared with its watchers.
+        image: Option<&'a std::sync::Arc<FinishedJob>>,
     },
 }
 

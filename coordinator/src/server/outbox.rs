@@ -157,8 +157,21 @@ impl Outbox for GrpcOutbox {
             self.progressed.push(job);
         }
         if let Some(list) = self.watchers.get_mut(&job) {
-            let events = job_events(&update);
-            list.retain(|tx| events.iter().all(|ev| tx.send(Ok(ev.clone())).is_ok()));
+            // The last watcher (most often the only one) is given the
+            // events themselves: a finished image is not copied for it.
+            let mut events = Some(job_events(&update));
+            let last = list.len().saturating_sub(1);
+            let mut kept = Vec::with_capacity(list.len());
+            for (i, tx) in list.drain(..).enumerate() {
+                let sent = match (i == last, events.as_ref()) {
+                    (false, Some(evs)) => evs.iter().all(|ev| tx.send(Ok(ev.clone())).is_ok()),
+                    _ => events.take().into_iter().flatten().all(|ev| tx.send(Ok(ev)).is_ok()),
+                };
+                if sent {
+                    kept.push(tx);
+                }
+            }
+            *list = kept;
         }
         if final_update {
             self.watchers.remove(&job);
@@ -205,4 +218,50 @@ pub(super) fn send_stored(journal: &Journal, job: JobId, tx: WatchTx) {
             }
         }
     });
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::scheduler::FinishedJob;
+    use farm_common::image::RgbImage;
+
+    /// Every watcher still listening is sent every event, the last one
+    /// the events themselves and the others copies; a closed one is
+    /// dropped.
+    #[test]
+    fn every_open_watcher_is_sent_every_event() {
+        let mut out = GrpcOutbox::default();
+        let job = JobId(1);
+        let (txs, mut rxs): (Vec<_>, Vec<_>) = (0..3).map(|_| mpsc::unbounded_channel()).unzip();
+        out.watchers.insert(job, txs);
+        rxs[1].close();
+        let progress =
+            JobUpdate::Progress { done: 1, total: 2, workers: 1, stats: RayStats::default() };
+        out.notify(job, progress.clone());
+        assert_eq!(out.watchers[&job].len(), 2, "the closed watcher is dropped");
+        let (w, h) = (1024, 700);
+        let finished = Arc::new(FinishedJob {
+            image: RgbImage { width: w, height: h, pixels: vec![[0.25, 0.5, 1.0]; w * h] },
+            error: None,
+            spp: 1,
+            render_seconds: 1.0,
+            stats: RayStats::default(),
+            passes: Vec::new(),
+            stopped: None,
+        });
+        let update = JobUpdate::Finished(finished);
+        let mut want = job_events(&progress);
+        want.extend(job_events(&update));
+        assert!(want.len() > 2, "the image should take several events");
+        out.notify(job, update);
+        assert!(!out.watchers.contains_key(&job), "a finished job has no watchers left");
+        for i in [0, 2] {
+            let mut got = Vec::new();
+            while let Ok(ev) = rxs[i].try_recv() {
+                got.push(ev.expect("an event"));
+            }
+            assert_eq!(got, want, "watcher {i}");
+        }
+    }
 }

@@ -16,7 +16,7 @@ mod tiles;
 use tiles::TileLogs;
 
 use super::StateError;
-use crate::scheduler::{JobSpec, JobState, JobUpdate, Record};
+use crate::scheduler::{FinishedJob, JobSpec, JobState, JobUpdate, Record};
 use crate::server::events::job_events;
 use farm_common::film::FilmTile;
 use farm_common::stats::RayStats;
@@ -114,15 +114,15 @@ pub enum Command {
         /// The result (postcard of the tile and its ray counts).
         data: Vec<u8>,
     },
-    /// A job ended; for a finished one, the image as encoded `JobEvent`s.
-    /// Its tiles are no longer needed.
+    /// A job ended; for a finished one, with its image, stored as the
+    /// very `JobEvent`s a watcher is sent. Its tiles are no longer needed.
     Ended {
         /// The job.
         job: u64,
         /// How.
         ending: Ending,
-        /// The image events of a finished job.
-        image: Vec<Vec<u8>>,
+        /// The image of a finished job, shared with its watchers.
+        image: Option<std::sync::Arc<FinishedJob>>,
     },
     /// Jobs purged after their retention period.
     Purge {
@@ -273,13 +273,8 @@ impl Journal {
                     JobState::Cancelled => Ending::Cancelled,
                     _ => Ending::Done,
                 };
-                // Stored as the very events a watcher is sent.
-                let image = image
-                    .map(|f| {
-                        let update = JobUpdate::Finished(std::sync::Arc::new(f.clone()));
-                        job_events(&update).iter().map(|e| e.encode_to_vec()).collect()
-                    })
-                    .unwrap_or_default();
+                // Encoded by the writer, off the event loop.
+                let image = image.cloned();
                 Command::Ended { job: job.0, ending, image }
             }
         });
@@ -397,8 +392,9 @@ fn apply(
             let mut st = tx.prepare_cached(
                 "INSERT OR REPLACE INTO images (job, seq, event) VALUES (?1, ?2, ?3)",
             )?;
-            for (seq, ev) in image.iter().enumerate() {
-                st.execute(params![job as i64, seq as i64, ev])?;
+            let events = image.map(|f| job_events(&JobUpdate::Finished(f))).unwrap_or_default();
+            for (seq, ev) in events.iter().enumerate() {
+                st.execute(params![job as i64, seq as i64, ev.encode_to_vec()])?;
             }
         }
         Command::Purge { jobs, unreferenced_before, reply } => {

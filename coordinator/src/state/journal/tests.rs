@@ -199,8 +199,40 @@ async fn tiles_come_back_from_the_log_and_from_rows_written_before_it() {
     assert_eq!(tiles, [(0, 0.0, stats), (1, 1.0, stats), (2, 2.0, stats)]);
     let log = dir.join("state.tiles").join("4.log");
     assert!(log.exists());
-    j.send(Command::Ended { job: 4, ending: Ending::Cancelled, image: vec![] });
+    j.send(Command::Ended { job: 4, ending: Ending::Cancelled, image: None });
     j.flush().await;
     assert!(!log.exists(), "an ended job's log is deleted");
     std::fs::remove_dir_all(&dir).ok();
+}
+
+/// A finished job's image is stored as the events a watcher is sent, in
+/// order, and read back whole: chunked when it is large.
+#[tokio::test]
+async fn a_finished_image_is_read_back_as_the_events_a_watcher_is_sent() {
+    use crate::scheduler::FinishedJob;
+    use farm_common::image::RgbImage;
+    let (j, _) = Journal::open(None).unwrap();
+    let s = spec(vec![[1u8; 32]]);
+    j.send(Command::Submitted { id: 5, detach: false, blobs: vec![], spec: Box::new(s) });
+    // Over one chunk of rows (8 MiB), so the image is several events.
+    let (w, h) = (1024, 700);
+    let pixels = (0..w * h).map(|i| [i as f32, 0.5, -(i as f32)]).collect();
+    let finished = std::sync::Arc::new(FinishedJob {
+        image: RgbImage { width: w, height: h, pixels },
+        error: None,
+        spp: 3,
+        render_seconds: 2.0,
+        stats: RayStats { camera_rays: 7, ..Default::default() },
+        passes: Vec::new(),
+        stopped: None,
+    });
+    let want: Vec<Vec<u8>> = job_events(&JobUpdate::Finished(finished.clone()))
+        .iter()
+        .map(|e| e.encode_to_vec())
+        .collect();
+    assert!(want.len() > 1, "the image should take several events");
+    j.send(Command::Ended { job: 5, ending: Ending::Done, image: Some(finished) });
+    let (reply, rx) = oneshot::channel();
+    j.send(Command::ReadImage { job: 5, reply });
+    assert_eq!(rx.await.unwrap(), want);
 }
