@@ -338,16 +338,45 @@ async fn fake_worker(channel: tonic::transport::Channel, tiles: Arc<Tiles>, in_f
     });
 }
 
-/// One capacity run's measures: wall and coordinator CPU seconds from the
-/// submit call to the progress event reporting every tile merged, and to
-/// the finished image received.
+/// One capacity run's measures: the coordinator's CPU seconds a tile
+/// while the job's middle tiles merge, and wall and CPU seconds from the
+/// submit call to the finished image received.
 struct Capacity {
     /// Seconds to register every fake worker and open its Work stream.
     register: f64,
-    wall_last: f64,
-    cpu_last: f64,
+    /// CPU seconds a tile between the progress events that first report
+    /// 10% and 90% of the tiles merged: the cost of a tile alone, without
+    /// the job's start (its film) and end (its image and estimate), which
+    /// grow with pixels, not tiles.
+    cpu_steady: f64,
     wall_image: f64,
     cpu_image: f64,
+}
+
+/// The progress events a run reads the coordinator's CPU at: the first
+/// to report at least a tenth, and at least nine tenths, of the tiles
+/// merged, with the tiles they report.
+#[derive(Default)]
+struct Marks {
+    tenth: Option<(u32, f64)>,
+    nine_tenths: Option<(u32, f64)>,
+}
+
+impl Marks {
+    /// Notes the CPU at a progress event reporting `done` of `total`.
+    fn progress(&mut self, done: u32, total: u32, cpu: impl Fn() -> Option<f64>) {
+        if self.tenth.is_none() && done * 10 >= total {
+            self.tenth = cpu().map(|c| (done, c));
+        } else if self.nine_tenths.is_none() && done * 10 >= total * 9 {
+            self.nine_tenths = cpu().map(|c| (done, c));
+        }
+    }
+
+    /// CPU seconds a tile between the two marks.
+    fn per_tile(&self) -> Option<f64> {
+        let ((d0, c0), (d1, c1)) = (self.tenth?, self.nine_tenths?);
+        (d1 > d0).then(|| (c1 - c0) / f64::from(d1 - d0))
+    }
 }
 
 /// A fresh coordinator process with `workers` fake workers, one job.
@@ -384,13 +413,11 @@ async fn capacity_run(
     let pid = procs.0[0].id().to_string();
     let cpu = || cpu_seconds(&pid).ok_or("no /proc reading of the coordinator".to_string());
     let (t, cpu0) = (Instant::now(), cpu()?);
-    let mut last_tile = None;
+    let mut marks = Marks::default();
     let opts = RemoteOptions::default();
     let remote = farm_cli::client::Remote::insecure(&url);
     let job = client::submit(&remote, scene, &opts, |_, p| {
-        if p.tiles_done == p.tiles_total && last_tile.is_none() {
-            last_tile = Some((t.elapsed().as_secs_f64(), cpu_seconds(&pid)));
-        }
+        marks.progress(p.tiles_done, p.tiles_total, || cpu_seconds(&pid));
     });
     match tokio::time::timeout(Duration::from_secs(300), job).await {
         Ok(Ok(_)) => {}
@@ -398,12 +425,9 @@ async fn capacity_run(
         Err(_) => return Err("timed out after 300 s".into()),
     }
     let (wall_image, cpu_image) = (t.elapsed().as_secs_f64(), cpu()? - cpu0);
-    let (wall_last, cpu_last) = match last_tile {
-        Some((w, Some(c))) => (w, c - cpu0),
-        _ => (wall_image, cpu_image),
-    };
     drop(procs);
-    Ok(Capacity { register, wall_last, cpu_last, wall_image, cpu_image })
+    let cpu_steady = marks.per_tile().ok_or("no progress events at 10% and 90%")?;
+    Ok(Capacity { register, cpu_steady, wall_image, cpu_image })
 }
 
 fn capacity_table(rt: &Runtime) {
@@ -427,19 +451,20 @@ fn capacity_table(rt: &Runtime) {
         Err(_) => FAKE_WORKERS.to_vec(),
     };
     println!(
-        "{:>7} {:>7} | {:>10} {:>10} {:>12} | {:>10} {:>10} {:>12}",
-        "", "", "to last", "tile", "", "to image", "", ""
+        "{:>7} {:>7} {:>7} | {:>10} {:>12} | {:>10} {:>10} {:>12} | {:>8}",
+        "", "", "", "10-90%", "", "to image", "", "", "job"
     );
     println!(
-        "{:>7} {:>7} | {:>10} {:>10} {:>12} | {:>10} {:>10} {:>12}",
+        "{:>7} {:>7} {:>7} | {:>10} {:>12} | {:>10} {:>10} {:>12} | {:>8}",
         "workers",
         "tiles",
-        "tiles/s",
+        "joined",
         "µs/tile",
         "tiles/s/core",
         "tiles/s",
         "µs/tile",
-        "tiles/s/core"
+        "tiles/s/core",
+        "ms"
     );
     for workers in counts {
         let mut runs = Vec::new();
@@ -461,29 +486,32 @@ fn capacity_table(rt: &Runtime) {
         };
         let per_tile = |s: f64| 1e6 * s / n as f64;
         let rate = |s: f64| n as f64 / s;
-        let (wl, cl) = (median(&|c| c.wall_last), median(&|c| c.cpu_last));
+        let steady = median(&|c| c.cpu_steady);
         let (wi, ci) = (median(&|c| c.wall_image), median(&|c| c.cpu_image));
         println!(
-            "{workers:>7} {n:>7} {:>9.2} | {:>10.0} {:>10.1} {:>12.0} | {:>10.0} {:>10.1} {:>12.0}",
+            "{workers:>7} {n:>7} {:>7.2} | {:>10.1} {:>12.0} | {:>10.0} {:>10.1} {:>12.0} | {:>8.0}",
             median(&|c| c.register),
-            rate(wl),
-            per_tile(cl),
-            rate(cl),
+            1e6 * steady,
+            1.0 / steady,
             rate(wi),
             per_tile(ci),
-            rate(ci)
+            rate(ci),
+            1e3 * median(&|c| c.cpu_image - c.cpu_steady * n as f64),
         );
     }
     let _ = std::fs::remove_dir_all(&dir);
     println!(
         "Medians of {CAPACITY_RUNS} runs, each on a fresh coordinator with its journal. Joined = \
-         wall seconds to register every fake worker and open its Work stream. To last \
-         tile = from the submit call to the progress event reporting every tile merged \
-         (dispatch, merge, journal); to image = to the finished {}×{} image received by the \
-         client. tiles/s = tiles over wall seconds; µs/tile and tiles/s/core = the coordinator \
-         process's own CPU seconds (user + system, /proc, 10 ms ticks) per tile and their \
-         inverse, so the client's and the fake workers' CPU is left out. The fake workers share \
-         {FAKE_CONNECTIONS} connections and ask for tiles/workers tiles each (1 to 32).",
+         wall seconds to register every fake worker and open its Work stream. 10-90% = the \
+         coordinator process's own CPU seconds (user + system, /proc, 10 ms ticks) a tile \
+         between the progress events that first report 10% and 90% of the tiles merged \
+         (dispatch, merge, journal: what grows with tiles), and its inverse. To image = from \
+         the submit call to the finished {}×{} image received by the client: tiles/s over wall \
+         seconds, and the coordinator's CPU a tile and its inverse. Job = the coordinator's CPU \
+         to image less 10-90%'s cost for every tile: the job's own start and end (its film, \
+         estimate and image), which grow with pixels. The client's and the fake workers' CPU \
+         is left out. The fake workers share {FAKE_CONNECTIONS} connections and ask for \
+         tiles/workers tiles each (1 to 32).",
         tiles.geometry.cropped_pixel_bounds.width(),
         tiles.geometry.cropped_pixel_bounds.height(),
     );
