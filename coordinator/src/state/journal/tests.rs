@@ -206,14 +206,16 @@ async fn tiles_come_back_from_the_log_and_from_rows_written_before_it() {
 }
 
 /// A finished job's image is stored as the events a watcher is sent, in
-/// order, and read back whole: chunked when it is large.
+/// order, and read back whole (chunked when it is large), in memory and
+/// on disk, after a restart too; a purge forgets it.
 #[tokio::test]
 async fn a_finished_image_is_read_back_as_the_events_a_watcher_is_sent() {
     use crate::scheduler::FinishedJob;
     use farm_common::image::RgbImage;
-    let (j, _) = Journal::open(None).unwrap();
-    let s = spec(vec![[1u8; 32]]);
-    j.send(Command::Submitted { id: 5, detach: false, blobs: vec![], spec: Box::new(s) });
+    let dir = std::env::temp_dir().join(format!("farm-journal-image-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    let db = dir.join("state.db");
     // Over one chunk of rows (8 MiB), so the image is several events.
     let (w, h) = (1024, 700);
     let pixels = (0..w * h).map(|i| [i as f32, 0.5, -(i as f32)]).collect();
@@ -231,8 +233,22 @@ async fn a_finished_image_is_read_back_as_the_events_a_watcher_is_sent() {
         .map(|e| e.encode_to_vec())
         .collect();
     assert!(want.len() > 1, "the image should take several events");
-    j.send(Command::Ended { job: 5, ending: Ending::Done, image: Some(finished) });
-    let (reply, rx) = oneshot::channel();
-    j.send(Command::ReadImage { job: 5, reply });
-    assert_eq!(rx.await.unwrap(), want);
+    let read = |j: &Journal, job| {
+        let (reply, rx) = oneshot::channel();
+        j.send(Command::ReadImage { job, reply });
+        rx
+    };
+    for on_disk in [false, true] {
+        let (j, _) = Journal::open(on_disk.then_some(db.as_path())).unwrap();
+        let s = spec(vec![[1u8; 32]]);
+        j.send(Command::Submitted { id: 5, detach: false, blobs: vec![], spec: Box::new(s) });
+        j.send(Command::Ended { job: 5, ending: Ending::Done, image: Some(finished.clone()) });
+        assert_eq!(read(&j, 5).await.unwrap(), want, "on disk: {on_disk}");
+    }
+    let (j, restored) = Journal::open(Some(&db)).unwrap();
+    assert_eq!(restored.jobs.len(), 1);
+    assert_eq!(read(&j, 5).await.unwrap(), want, "after a restart");
+    assert!(purge(&j, vec![5]).await.is_empty());
+    assert!(read(&j, 5).await.unwrap().is_empty(), "a purged job's image is forgotten");
+    std::fs::remove_dir_all(&dir).ok();
 }
