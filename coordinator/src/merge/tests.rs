@@ -116,7 +116,8 @@ fn bad_tiles_are_refused() {
     let mut t = tile(&g, 0);
     t.pixels.pop();
     assert!(matches!(f.accept(TileId(0), t), Err(Error::WrongDimensions(0))));
-    for (k, v) in [(0, f32::NAN), (3, f32::INFINITY), (5, f32::NEG_INFINITY), (3, -0.5)] {
+    for (k, v) in [(0, f32::NAN), (3, f32::INFINITY), (5, f32::NEG_INFINITY), (3, -0.5), (7, -0.5)]
+    {
         let mut t = tile(&g, 2);
         let mut a = t.pixels[7].to_array();
         a[k] = v;
