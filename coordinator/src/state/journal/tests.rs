@@ -35,6 +35,15 @@ fn spec(blobs: Vec<Hash>) -> JobSpec {
     }
 }
 
+/// An empty folder of its own for a test's database, and the database's path.
+fn scratch_db(name: &str) -> (std::path::PathBuf, std::path::PathBuf) {
+    let dir = std::env::temp_dir().join(format!("farm-journal-{name}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    let db = dir.join("state.db");
+    (dir, db)
+}
+
 async fn purge(j: &Journal, jobs: Vec<u64>) -> Vec<Hash> {
     let (reply, rx) = oneshot::channel();
     j.send(Command::Purge { jobs, unreferenced_before: unix_now() + 10, reply });
@@ -165,10 +174,7 @@ fn a_film_journalled_before_half_images_still_decodes() {
 #[tokio::test]
 async fn tiles_come_back_from_the_log_and_from_rows_written_before_it() {
     use farm_common::film::FilmTile;
-    let dir = std::env::temp_dir().join(format!("farm-journal-tiles-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
-    let db = dir.join("state.db");
+    let (dir, db) = scratch_db("tiles");
     let tile = |k: u32| {
         let mut t = FilmTile::new(Bounds2i::new(Point2i::new(0, 0), Point2i::new(2, 1)));
         t.pixels[1].weight = k as f32;
@@ -212,10 +218,7 @@ async fn tiles_come_back_from_the_log_and_from_rows_written_before_it() {
 async fn a_finished_image_is_read_back_as_the_events_a_watcher_is_sent() {
     use crate::scheduler::FinishedJob;
     use farm_common::image::RgbImage;
-    let dir = std::env::temp_dir().join(format!("farm-journal-image-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
-    let db = dir.join("state.db");
+    let (dir, db) = scratch_db("image");
     // Over one chunk of rows (8 MiB), so the image is several events.
     let (w, h) = (1024, 700);
     let pixels = (0..w * h).map(|i| [i as f32, 0.5, -(i as f32)]).collect();

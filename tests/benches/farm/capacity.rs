@@ -1,0 +1,269 @@
+//! Table 2 of the farm bench: a coordinator process's CPU a tile and a
+//! job, with fake workers in this process answering at once.
+
+use super::*;
+
+/// Fake worker counts of table 2 (`FARM_FAKE_WORKERS`, e.g. "1,100").
+const FAKE_WORKERS: [usize; 3] = [1, 100, 10_000];
+/// Connections the fake workers share: each holds its Work stream on one
+/// of them, as HTTP/2 streams, so 10,000 workers need no 10,000 sockets.
+const FAKE_CONNECTIONS: usize = 64;
+/// Runs of each row of table 2.
+const CAPACITY_RUNS: usize = 3;
+
+/// The capacity job: a big film of trivial content. 2048² is the largest
+/// square whose finished image (12 bytes a pixel) fits in one 64 MiB gRPC
+/// message (4096² would be 192 MiB).
+const CAPACITY_SCENE: &str = r#"
+LookAt 0 0 -5  0 0 0  0 1 0
+Camera "perspective" "float fov" [ 40 ]
+Film "image" "integer xresolution" [ 2048 ] "integer yresolution" [ 2048 ]
+PixelFilter "box"
+Sampler "halton" "integer pixelsamples" [ 1 ]
+WorldBegin
+LightSource "point" "point from" [ 0 0 -3 ] "rgb I" [ 10 10 10 ]
+Shape "sphere" "float radius" [ 1 ]
+WorldEnd
+"#;
+
+/// Precomputed answers: the film layout and one tile's bytes per distinct size.
+struct Tiles {
+    geometry: FilmGeometry,
+    bytes: HashMap<(i32, i32), Vec<u8>>,
+}
+
+impl Tiles {
+    fn new(geometry: FilmGeometry) -> Self {
+        // Σw·rgb and Σw, then the same over the second half's samples.
+        let sums = [0.5f32, 0.5, 0.5, 1.0, 0.25, 0.25, 0.25, 0.5];
+        let px: Vec<u8> = sums.iter().flat_map(|v| v.to_le_bytes()).collect();
+        let mut bytes = HashMap::new();
+        for t in 0..geometry.tile_count() {
+            let b = geometry.tile_pixel_bounds(TileId(t));
+            bytes.entry((b.width(), b.height())).or_insert_with(|| px.repeat(b.area()));
+        }
+        Tiles { geometry, bytes }
+    }
+
+    fn tile(&self, t: u32) -> v1::FilmTile {
+        let b = self.geometry.tile_pixel_bounds(TileId(t));
+        v1::FilmTile {
+            x0: b.min.x,
+            y0: b.min.y,
+            x1: b.max.x,
+            y1: b.max.y,
+            pixels: self.bytes[&(b.width(), b.height())].clone(),
+        }
+    }
+}
+
+/// Registers over `channel`, opens the Work stream and answers every
+/// assignment at once; returns once the stream is open, leaving a task that
+/// answers until the coordinator goes.
+async fn fake_worker(channel: tonic::transport::Channel, tiles: Arc<Tiles>, in_flight: u32) {
+    let mut c = CoordinatorClient::new(channel);
+    let reg = v1::RegisterWorkerRequest {
+        protocol_version: PROTOCOL_VERSION,
+        name: "fake".into(),
+        threads: 1,
+    };
+    let reply = c.register_worker(reg).await.expect("register").into_inner();
+    let (tx, mut inbound) = open_session(&mut c, reply.worker_id, &reply.session_key, in_flight)
+        .await
+        .expect("work stream");
+    tokio::spawn(async move {
+        while let Ok(Some(msg)) = inbound.message().await {
+            let Some(coordinator_message::Kind::Assign(a)) = msg.kind else { continue };
+            let result = v1::TileResult {
+                job_id: a.job_id,
+                tile: a.tile,
+                attempt: a.attempt,
+                outcome: Some(tile_result::Outcome::FilmTile(tiles.tile(a.tile))),
+                stats: None,
+            };
+            let msg = v1::WorkerMessage { kind: Some(worker_message::Kind::Result(result)) };
+            if tx.send(msg).is_err() {
+                break;
+            }
+        }
+    });
+}
+
+/// One capacity run's measures: the coordinator's CPU seconds a tile
+/// while the job's middle tiles merge, and wall and CPU seconds from the
+/// submit call to the finished image received.
+struct Capacity {
+    /// Seconds to register every fake worker and open its Work stream.
+    register: f64,
+    /// CPU seconds a tile between the progress events that first report
+    /// 10% and 90% of the tiles merged: the cost of a tile alone, without
+    /// the job's start (its film) and end (its image and estimate), which
+    /// grow with pixels, not tiles.
+    cpu_steady: f64,
+    wall_image: f64,
+    cpu_image: f64,
+}
+
+/// The progress events a run reads the coordinator's CPU at: the first
+/// to report at least a tenth, and at least nine tenths, of the tiles
+/// merged, with the tiles they report.
+#[derive(Default)]
+struct Marks {
+    tenth: Option<(u32, f64)>,
+    nine_tenths: Option<(u32, f64)>,
+}
+
+impl Marks {
+    /// Notes the CPU at a progress event reporting `done` of `total`.
+    fn progress(&mut self, done: u32, total: u32, cpu: impl Fn() -> Option<f64>) {
+        if self.tenth.is_none() && done * 10 >= total {
+            self.tenth = cpu().map(|c| (done, c));
+        } else if self.nine_tenths.is_none() && done * 10 >= total * 9 {
+            self.nine_tenths = cpu().map(|c| (done, c));
+        }
+    }
+
+    /// CPU seconds a tile between the two marks.
+    fn per_tile(&self) -> Option<f64> {
+        let ((d0, c0), (d1, c1)) = (self.tenth?, self.nine_tenths?);
+        (d1 > d0).then(|| (c1 - c0) / f64::from(d1 - d0))
+    }
+}
+
+/// A fresh coordinator process with `workers` fake workers, one job.
+async fn capacity_run(
+    bin: &Path,
+    workers: usize,
+    scene: &Path,
+    tiles: &Arc<Tiles>,
+) -> Result<Capacity, String> {
+    // Heartbeats are not what is measured: fake workers send none, and
+    // must not be dropped as silent while they wait for tiles.
+    let (procs, url) = start_coordinator(bin, &["--heartbeat", "60"]).await;
+    let registering = Instant::now();
+    let mut channels = Vec::new();
+    for _ in 0..FAKE_CONNECTIONS.min(workers) {
+        let endpoint = tonic::transport::Endpoint::from_shared(url.clone()).expect("url");
+        channels.push(endpoint.connect().await.map_err(|e| e.to_string())?);
+    }
+    // As many tiles in flight as a worker of 16 threads asks for, but no
+    // more slots in all than the job has tiles.
+    let in_flight = (tiles.geometry.tile_count() as usize / workers).clamp(1, 32) as u32;
+    let mut joining = tokio::task::JoinSet::new();
+    for w in 0..workers {
+        let (channel, tiles) = (channels[w % channels.len()].clone(), tiles.clone());
+        joining.spawn(fake_worker(channel, tiles, in_flight));
+        if joining.len() >= 256 {
+            joining.join_next().await;
+        }
+    }
+    joining.join_all().await;
+    wait_for_workers(&url, workers).await;
+    let register = registering.elapsed().as_secs_f64();
+
+    let pid = procs.0[0].id().to_string();
+    let cpu = || cpu_seconds(&pid).ok_or("no /proc reading of the coordinator".to_string());
+    let (t, cpu0) = (Instant::now(), cpu()?);
+    let mut marks = Marks::default();
+    let opts = RemoteOptions::default();
+    let remote = farm_cli::client::Remote::insecure(&url);
+    let job = client::submit(&remote, scene, &opts, |_, p| {
+        marks.progress(p.tiles_done, p.tiles_total, || cpu_seconds(&pid));
+    });
+    match tokio::time::timeout(Duration::from_secs(300), job).await {
+        Ok(Ok(_)) => {}
+        Ok(Err(e)) => return Err(e.to_string()),
+        Err(_) => return Err("timed out after 300 s".into()),
+    }
+    let (wall_image, cpu_image) = (t.elapsed().as_secs_f64(), cpu()? - cpu0);
+    drop(procs);
+    let cpu_steady = marks.per_tile().ok_or("no progress events at 10% and 90%")?;
+    Ok(Capacity { register, cpu_steady, wall_image, cpu_image })
+}
+
+pub(super) fn capacity_table(rt: &Runtime) {
+    println!("Coordinator capacity: a coordinator process, fake workers in this process answering at once");
+    let Some(bin) = farm_binary() else {
+        println!("skipped: no target/release/farm; run `cargo build --release -p farm-cli` first");
+        return;
+    };
+    let dir = std::env::temp_dir().join(format!("farm-bench-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).expect("temp dir");
+    let scene = dir.join("capacity.pbrt");
+    std::fs::write(&scene, CAPACITY_SCENE).expect("write scene");
+    let (desc, _) = farm_scene::parse_str(CAPACITY_SCENE, "capacity.pbrt", &dir)
+        .expect("capacity scene parses");
+    let (geometry, ..) =
+        film_and_sampler(&desc, &RenderOptions { spp: None, ..Default::default() });
+    let n = geometry.tile_count();
+    let tiles = Arc::new(Tiles::new(geometry));
+    let counts: Vec<usize> = match std::env::var("FARM_FAKE_WORKERS") {
+        Ok(v) => v.split(',').filter_map(|c| c.trim().parse().ok()).collect(),
+        Err(_) => FAKE_WORKERS.to_vec(),
+    };
+    println!(
+        "{:>7} {:>7} {:>7} | {:>10} {:>12} | {:>10} {:>10} {:>12} | {:>8}",
+        "", "", "", "10-90%", "", "to image", "", "", "job"
+    );
+    println!(
+        "{:>7} {:>7} {:>7} | {:>10} {:>12} | {:>10} {:>10} {:>12} | {:>8}",
+        "workers",
+        "tiles",
+        "joined",
+        "µs/tile",
+        "tiles/s/core",
+        "tiles/s",
+        "µs/tile",
+        "tiles/s/core",
+        "ms"
+    );
+    for workers in counts {
+        let mut runs = Vec::new();
+        let mut failure = None;
+        for _ in 0..CAPACITY_RUNS {
+            match rt.block_on(capacity_run(&bin, workers, &scene, &tiles)) {
+                Ok(c) => runs.push(c),
+                Err(e) => failure = Some(e),
+            }
+        }
+        if let Some(e) = failure {
+            println!("{workers:>7} {n:>7} failed: {e}");
+            continue;
+        }
+        // Medians over the runs, each column on its own.
+        let median = |f: &dyn Fn(&Capacity) -> f64| {
+            let mut v: Vec<f64> = runs.iter().map(f).collect();
+            min_median(&mut v).1
+        };
+        let per_tile = |s: f64| 1e6 * s / n as f64;
+        let rate = |s: f64| n as f64 / s;
+        let steady = median(&|c| c.cpu_steady);
+        let (wi, ci) = (median(&|c| c.wall_image), median(&|c| c.cpu_image));
+        println!(
+            "{workers:>7} {n:>7} {:>7.2} | {:>10.1} {:>12.0} | {:>10.0} {:>10.1} {:>12.0} | {:>8.0}",
+            median(&|c| c.register),
+            1e6 * steady,
+            1.0 / steady,
+            rate(wi),
+            per_tile(ci),
+            rate(ci),
+            1e3 * median(&|c| c.cpu_image - c.cpu_steady * n as f64),
+        );
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+    println!(
+        "Medians of {CAPACITY_RUNS} runs, each on a fresh coordinator with its journal. Joined = \
+         wall seconds to register every fake worker and open its Work stream. 10-90% = the \
+         coordinator process's own CPU seconds (user + system, /proc, 10 ms ticks) a tile \
+         between the progress events that first report 10% and 90% of the tiles merged \
+         (dispatch, merge, journal: what grows with tiles), and its inverse. To image = from \
+         the submit call to the finished {}×{} image received by the client: tiles/s over wall \
+         seconds, and the coordinator's CPU a tile and its inverse. Job = the coordinator's CPU \
+         to image less 10-90%'s cost for every tile: the job's own start and end (its film, \
+         estimate and image), which grow with pixels. The client's and the fake workers' CPU \
+         is left out. The fake workers share {FAKE_CONNECTIONS} connections and ask for \
+         tiles/workers tiles each (1 to 32).",
+        tiles.geometry.cropped_pixel_bounds.width(),
+        tiles.geometry.cropped_pixel_bounds.height(),
+    );
+}
