@@ -85,6 +85,7 @@ pub(crate) fn counted_error(e: f64) -> Option<f64> {
 }
 
 /// The sum and count of the pixels' errors that are counted, in order.
+#[cfg(test)]
 pub(crate) fn sum_counted(errors: &[f64]) -> (f64, usize) {
     errors.iter().filter_map(|&e| counted_error(e)).fold((0.0, 0), |(s, k), e| (s + e, k + 1))
 }
@@ -246,6 +247,12 @@ impl ErrorEstimate {
     /// The estimate from each pixel's error (NaN: not counted), row-major
     /// over `bounds` (summed in that order).
     pub fn from_values(bounds: Bounds2i, values: &[f64]) -> Option<Self> {
+        Self::with_totals(bounds, values).map(|(e, _)| e)
+    }
+
+    /// [`ErrorEstimate::from_values`] and the sum and count of the errors
+    /// counted, from the same pass.
+    pub(crate) fn with_totals(bounds: Bounds2i, values: &[f64]) -> Option<(Self, (f64, usize))> {
         let (width, height) = (bounds.width().max(0) as usize, bounds.height().max(0) as usize);
         let mut per_pixel = Vec::with_capacity(values.len());
         let (mut sum, mut counted) = (0.0f64, 0usize);
@@ -258,12 +265,9 @@ impl ErrorEstimate {
             sum += e;
             counted += 1;
         }
-        (counted > 0).then(|| ErrorEstimate {
-            fireflies: None,
-            width,
-            height,
-            per_pixel,
-            rel_mse: sum / counted as f64,
+        (counted > 0).then(|| {
+            let rel_mse = sum / counted as f64;
+            (ErrorEstimate { fireflies: None, width, height, per_pixel, rel_mse }, (sum, counted))
         })
     }
 
@@ -303,6 +307,22 @@ mod tests {
     use farm_common::geometry::Point2i;
     use farm_common::rng::Rng;
     use farm_common::Spectrum;
+
+    /// The totals the estimate passes on are the ones summed apart, bit
+    /// for bit, with errors left out (NaN) among them.
+    #[test]
+    fn the_totals_are_the_sum_and_count_of_the_counted_errors() {
+        let mut rng = Rng::new(5);
+        let b = Bounds2i::new(Point2i::new(0, 0), Point2i::new(37, 23));
+        let errors: Vec<f64> = (0..b.area())
+            .map(|i| if i % 7 == 3 { f64::NAN } else { f64::from(rng.uniform_f32()) * 1e-3 })
+            .collect();
+        let (e, (sum, counted)) = ErrorEstimate::with_totals(b, &errors).unwrap();
+        let (s, k) = sum_counted(&errors);
+        assert_eq!((sum.to_bits(), counted), (s.to_bits(), k));
+        assert_eq!(e.rel_mse.to_bits(), (s / k as f64).to_bits());
+        assert!(ErrorEstimate::with_totals(b, &vec![f64::NAN; b.area()]).is_none());
+    }
 
     /// Renders a synthetic film whose pixels average `n` noisy samples of a
     /// known value, and returns the estimate and the true relMSE.

@@ -40,7 +40,7 @@
 //! [`MIN_PIXELS`] fireflies are counted as edge pixels: a lone one is
 //! usually the corner of a light.)
 
-use super::{counted_error, half_weights, pixel_error_against, sum_counted, Against, EPSILON};
+use super::{counted_error, half_weights, pixel_error_against, Against, EPSILON};
 use farm_common::film::{HalfImages, Pixel};
 use std::collections::btree_map::{BTreeMap, Entry};
 
@@ -169,18 +169,18 @@ pub fn suspects(
 
 /// What the [`Suspects`] of a `width` × `height` film whose pixels
 /// (row-major) are `pixel(i)`, with `halves`, do to its estimate, which
-/// counts `errors[i]` for pixel `i` (NaN: not counted); `None` when
-/// counting their error does not make the estimate more than [`MATERIAL`]
-/// times what it is.
+/// counts `errors[i]` for pixel `i` (NaN: not counted), whose sum and
+/// count the caller passes beside them (worked out once, in order);
+/// `None` when counting their error does not make the estimate more than
+/// [`MATERIAL`] times what it is.
 pub fn find(
     (width, height): (usize, usize),
     pixel: impl Fn(usize) -> Pixel,
     scale: f32,
     halves: HalfImages,
     Suspects { mut fireflies, mut edges }: Suspects,
-    errors: &[f64],
+    (errors, (sum, counted)): (&[f64], (f64, usize)),
 ) -> Option<Fireflies> {
-    let (sum, counted) = sum_counted(errors);
     let sampled = |j: usize| value(&pixel(j), scale);
     let value = |j: usize| sampled(j).unwrap_or(0.0);
     if fireflies.len() < MIN_PIXELS {
@@ -275,7 +275,7 @@ fn edge_run(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::estimate::levelled_errors;
+    use crate::estimate::{levelled_errors, sum_counted};
     use farm_common::film::FilmTile;
     use farm_common::geometry::{Bounds2i, Point2i};
     use farm_common::Spectrum;
@@ -320,7 +320,7 @@ mod tests {
 
     fn run(t: &FilmTile, spp: u32) -> Option<Fireflies> {
         let (s, e) = errors(t, spp);
-        find(SIZE, |i| t.pixels[i], 1.0, HalfImages::Independent, s, &e)
+        find(SIZE, |i| t.pixels[i], 1.0, HalfImages::Independent, s, (&e, sum_counted(&e)))
     }
 
     #[test]
@@ -406,7 +406,15 @@ mod tests {
         // The rest of the image as noisy as the fireflies at their worst.
         let (s, e) = errors(&t, 8);
         let noisy: Vec<f64> = e.iter().map(|e| e + f.rel_mse).collect();
-        assert!(find(SIZE, |i| t.pixels[i], 1.0, HalfImages::Independent, s, &noisy).is_none());
+        assert!(find(
+            SIZE,
+            |i| t.pixels[i],
+            1.0,
+            HalfImages::Independent,
+            s,
+            (&noisy, sum_counted(&noisy))
+        )
+        .is_none());
     }
 
     #[test]

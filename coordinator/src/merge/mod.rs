@@ -4,9 +4,7 @@
 //! they were, or in what order results came back.
 
 use crate::error::Error;
-use crate::estimate::{
-    find_fireflies, levelled_errors, pixel_error, sum_counted, suspects, ErrorEstimate,
-};
+use crate::estimate::{find_fireflies, levelled_errors, pixel_error, suspects, ErrorEstimate};
 use farm_common::film::{resolve, FilmGeometry, FilmTile, HalfImages};
 use farm_common::geometry::{Bounds2i, Point2i};
 use farm_common::ids::TileId;
@@ -249,9 +247,9 @@ impl Film {
         let pixel = |i| self.sums.pixel(i);
         let suspects = suspects(size, pixel, scale, spp);
         let errors = levelled_errors(size, pixel, scale, halves, |i| suspects.is_firefly(i));
-        let mut estimate = ErrorEstimate::from_values(b, &errors)?;
-        estimate.fireflies = find_fireflies(size, pixel, scale, halves, suspects, &errors);
-        let (sum, counted) = sum_counted(&errors);
+        let (mut estimate, (sum, counted)) = ErrorEstimate::with_totals(b, &errors)?;
+        let totals = (errors.as_slice(), (sum, counted));
+        estimate.fireflies = find_fireflies(size, pixel, scale, halves, suspects, totals);
         // The per-pixel buffers go before the map is copied, so no more than
         // two maps (4 bytes a pixel each) and the errors (8) are alive at
         // once beside the film.
@@ -259,7 +257,15 @@ impl Film {
         self.running.map = Vec::new();
         self.running = Running { map: estimate.per_pixel.clone(), sum, counted, upto: self.next };
         // Its map is the running one's until the next tile.
-        let kept = ErrorEstimate { per_pixel: Vec::new(), ..estimate.clone() };
+        // (Built field by field: `..estimate.clone()` copied the map to
+        // drop it.)
+        let kept = ErrorEstimate {
+            per_pixel: Vec::new(),
+            fireflies: estimate.fireflies.clone(),
+            width: estimate.width,
+            height: estimate.height,
+            rel_mse: estimate.rel_mse,
+        };
         self.finished = Some((spp, kept));
         Some(estimate)
     }

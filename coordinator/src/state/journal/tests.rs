@@ -247,6 +247,8 @@ async fn a_finished_image_is_read_back_as_the_events_a_watcher_is_sent() {
         j.send(Command::Submitted { id: 5, detach: false, blobs: vec![], spec: Box::new(s) });
         j.send(Command::Ended { job: 5, ending: Ending::Done, image: Some(finished.clone()) });
         assert_eq!(read(&j, 5).await.unwrap(), want, "on disk: {on_disk}");
+        // A read is answered before its batch commits; a flush after.
+        j.flush().await;
     }
     let (j, restored) = Journal::open(Some(&db)).unwrap();
     assert_eq!(restored.jobs.len(), 1);
