@@ -243,11 +243,15 @@ fn seeded_faults_change_no_byte_of_any_image() {
                 true
             }
         });
-        // Once, when some tiles are in: the coordinator dies and comes back.
-        if !restarted && now.duration_since(start) > Duration::from_millis(1500) {
-            let busy = rt
-                .block_on(farm_cli::client::status(&remote))
-                .is_ok_and(|s| s.jobs.len() == jobs && s.jobs.iter().any(|j| j.tiles_done > 0));
+        // Once, when some tiles are in and some jobs still run: the
+        // coordinator dies and comes back. (Waiting a fixed 1.5 s first let
+        // every job end before on a fast machine.)
+        if !restarted && now.duration_since(start) > Duration::from_millis(300) {
+            let busy = rt.block_on(farm_cli::client::status(&remote)).is_ok_and(|s| {
+                s.jobs.len() == jobs
+                    && s.jobs.iter().any(|j| j.tiles_done > 0)
+                    && s.jobs.iter().any(|j| j.state == "queued" || j.state == "running")
+            });
             if busy {
                 procs.0[coordinator].kill().expect("SIGKILL coordinator");
                 procs.0[coordinator].wait().expect("reap");
