@@ -431,8 +431,13 @@ impl Film {
     pub fn image(&self) -> RgbImage {
         let b = self.geometry.cropped_pixel_bounds;
         let scale = self.geometry.scale;
-        let pixels =
-            self.sums.value.iter().map(|&[r, g, b, w]| resolve([r, g, b], w, scale)).collect();
+        // Fresh pages, mapped in one call (see `sums::populate`) rather
+        // than one fault a page as the pixels are written.
+        let mut pixels = vec![[0.0f32; 3]; self.sums.value.len()];
+        sums::populate(&mut pixels);
+        for (p, &[r, g, b, w]) in pixels.iter_mut().zip(&self.sums.value) {
+            *p = resolve([r, g, b], w, scale);
+        }
         RgbImage { width: b.width() as usize, height: b.height() as usize, pixels }
     }
 }
