@@ -131,7 +131,9 @@ pub fn levelled_errors(
         }
         (values, across)
     };
-    let mut errors = Vec::with_capacity(width * height);
+    // Its pages mapped in one call, then written in order.
+    let mut errors = vec![0.0; width * height];
+    crate::pages::populate(&mut errors);
     let (mut above, mut here) = (None, (height > 0).then(|| row(0)));
     for y in 0..height {
         let below = (y + 1 < height).then(|| row(y + 1));
@@ -140,11 +142,11 @@ pub fn levelled_errors(
             let i = y * width + x;
             let value = values[x];
             if value[3] == 0.0 {
-                errors.push(f64::NAN);
+                errors[i] = f64::NAN;
                 continue;
             }
             if own(i) {
-                errors.push(pixel_error(&pixel(i), scale, halves).unwrap_or(f64::NAN));
+                errors[i] = pixel_error(&pixel(i), scale, halves).unwrap_or(f64::NAN);
                 continue;
             }
             let mut sum = across[x];
@@ -153,7 +155,7 @@ pub fn levelled_errors(
             }
             let level = std::array::from_fn(|c| value[c].min(sum[c] / sum[3]));
             let e = pixel_error_against(&pixel(i), scale, halves, Against::Level(level));
-            errors.push(e.unwrap_or(f64::NAN));
+            errors[i] = e.unwrap_or(f64::NAN);
         }
         above = here;
         here = below;
@@ -254,16 +256,15 @@ impl ErrorEstimate {
     /// counted, from the same pass.
     pub(crate) fn with_totals(bounds: Bounds2i, values: &[f64]) -> Option<(Self, (f64, usize))> {
         let (width, height) = (bounds.width().max(0) as usize, bounds.height().max(0) as usize);
-        let mut per_pixel = Vec::with_capacity(values.len());
+        let mut per_pixel = vec![0.0f32; values.len()];
+        crate::pages::populate(&mut per_pixel);
         let (mut sum, mut counted) = (0.0f64, 0usize);
-        for &v in values {
-            let Some(e) = counted_error(v) else {
-                per_pixel.push(0.0);
-                continue;
-            };
-            per_pixel.push(e as f32);
-            sum += e;
-            counted += 1;
+        for (p, &v) in per_pixel.iter_mut().zip(values) {
+            if let Some(e) = counted_error(v) {
+                *p = e as f32;
+                sum += e;
+                counted += 1;
+            }
         }
         (counted > 0).then(|| {
             let rel_mse = sum / counted as f64;

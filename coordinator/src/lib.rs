@@ -16,6 +16,8 @@ pub mod live;
 pub mod merge;
 /// Prometheus metrics.
 pub mod metrics;
+/// Large buffers mapped before they are written.
+mod pages;
 /// The farm scheduler.
 pub mod scheduler;
 /// TLS, tokens and roles.

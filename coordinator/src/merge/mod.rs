@@ -434,7 +434,7 @@ impl Film {
         // Fresh pages, mapped in one call (see `sums::populate`) rather
         // than one fault a page as the pixels are written.
         let mut pixels = vec![[0.0f32; 3]; self.sums.value.len()];
-        sums::populate(&mut pixels);
+        crate::pages::populate(&mut pixels);
         for (p, &[r, g, b, w]) in pixels.iter_mut().zip(&self.sums.value) {
             *p = resolve([r, g, b], w, scale);
         }

@@ -25,33 +25,10 @@ pub(super) struct Sums {
 /// none. Where it cannot, the zeros are written.
 fn written_zeros(n: usize) -> Vec<[f32; 4]> {
     let mut v = vec![[0.0f32; 4]; n];
-    if !populate(&mut v) {
+    if !crate::pages::populate(&mut v) {
         v.fill([0.0; 4]);
     }
     v
-}
-
-/// Maps the whole pages of `v` writable at once, leaving what they hold
-/// as it is; whether the kernel did. Worth it for a large buffer just
-/// allocated (zeroed pages not yet touched), which is about to be written.
-#[cfg(target_os = "linux")]
-pub(super) fn populate<T: Copy>(v: &mut [T]) -> bool {
-    const MADV_POPULATE_WRITE: libc::c_int = 23;
-    const PAGE: usize = 4096;
-    let (start, len) = (v.as_mut_ptr() as usize, std::mem::size_of_val(v));
-    let (first, end) = (start.next_multiple_of(PAGE), (start + len) / PAGE * PAGE);
-    if end <= first {
-        return false;
-    }
-    // SAFETY: the range is whole pages inside `v`, which this function
-    // borrows mutably; populating writes nothing the program can see (each
-    // page reads as it did before).
-    unsafe { libc::madvise(first as *mut libc::c_void, end - first, MADV_POPULATE_WRITE) == 0 }
-}
-
-#[cfg(not(target_os = "linux"))]
-pub(super) fn populate<T: Copy>(_: &mut [T]) -> bool {
-    false
 }
 
 impl Sums {
