@@ -179,7 +179,8 @@ pub fn find(
     scale: f32,
     halves: HalfImages,
     Suspects { mut fireflies, mut edges }: Suspects,
-    (errors, (sum, counted)): (&[f64], (f64, usize)),
+    errors: &[f64],
+    (sum, counted): (f64, usize),
 ) -> Option<Fireflies> {
     let sampled = |j: usize| value(&pixel(j), scale);
     let value = |j: usize| sampled(j).unwrap_or(0.0);
@@ -320,7 +321,7 @@ mod tests {
 
     fn run(t: &FilmTile, spp: u32) -> Option<Fireflies> {
         let (s, e) = errors(t, spp);
-        find(SIZE, |i| t.pixels[i], 1.0, HalfImages::Independent, s, (&e, sum_counted(&e)))
+        find(SIZE, |i| t.pixels[i], 1.0, HalfImages::Independent, s, &e, sum_counted(&e))
     }
 
     #[test]
@@ -412,7 +413,8 @@ mod tests {
             1.0,
             HalfImages::Independent,
             s,
-            (&noisy, sum_counted(&noisy))
+            &noisy,
+            sum_counted(&noisy)
         )
         .is_none());
     }

@@ -248,8 +248,8 @@ impl Film {
         let suspects = suspects(size, pixel, scale, spp);
         let errors = levelled_errors(size, pixel, scale, halves, |i| suspects.is_firefly(i));
         let (mut estimate, (sum, counted)) = ErrorEstimate::with_totals(b, &errors)?;
-        let totals = (errors.as_slice(), (sum, counted));
-        estimate.fireflies = find_fireflies(size, pixel, scale, halves, suspects, totals);
+        estimate.fireflies =
+            find_fireflies(size, pixel, scale, halves, suspects, &errors, (sum, counted));
         // The per-pixel buffers go before the map is copied, so no more than
         // two maps (4 bytes a pixel each) and the errors (8) are alive at
         // once beside the film.
@@ -431,8 +431,8 @@ impl Film {
     pub fn image(&self) -> RgbImage {
         let b = self.geometry.cropped_pixel_bounds;
         let scale = self.geometry.scale;
-        // Fresh pages, mapped in one call (see `sums::populate`) rather
-        // than one fault a page as the pixels are written.
+        // Fresh pages, mapped in one call (`crate::pages`) rather than one
+        // fault a page as the pixels are written.
         let mut pixels = vec![[0.0f32; 3]; self.sums.value.len()];
         crate::pages::populate(&mut pixels);
         for (p, &[r, g, b, w]) in pixels.iter_mut().zip(&self.sums.value) {

@@ -23,7 +23,7 @@ pub(super) struct Sums {
 /// Writing the zeros takes one fault a page (8% of it); asking the kernel
 /// to map them all in one call (`MADV_POPULATE_WRITE`, Linux 5.14) takes
 /// none. Where it cannot, the zeros are written.
-fn written_zeros(n: usize) -> Vec<[f32; 4]> {
+fn mapped_zeros(n: usize) -> Vec<[f32; 4]> {
     let mut v = vec![[0.0f32; 4]; n];
     if !crate::pages::populate(&mut v) {
         v.fill([0.0; 4]);
@@ -35,7 +35,7 @@ impl Sums {
     /// Zero sums over `bounds`.
     pub fn new(bounds: Bounds2i) -> Self {
         let n = bounds.area();
-        Sums { bounds, value: written_zeros(n), second: written_zeros(n) }
+        Sums { bounds, value: mapped_zeros(n), second: mapped_zeros(n) }
     }
 
     /// Pixel `i` (row-major) with all its sums.
@@ -134,7 +134,7 @@ mod tests {
     fn fresh_sums_are_zero_whatever_their_size() {
         // Under a page, across pages, and large enough for its own pages.
         for n in [0, 1, 255, 257, 4096, (40 << 20) / 16 + 3] {
-            let v = written_zeros(n);
+            let v = mapped_zeros(n);
             assert_eq!(v.len(), n);
             assert!(v.iter().all(|p| p.iter().all(|c| c.to_bits() == 0)), "{n}");
         }

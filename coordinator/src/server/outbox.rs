@@ -159,19 +159,13 @@ impl Outbox for GrpcOutbox {
         if let Some(list) = self.watchers.get_mut(&job) {
             // The last watcher (most often the only one) is given the
             // events themselves: a finished image is not copied for it.
-            let mut events = Some(job_events(&update));
-            let last = list.len().saturating_sub(1);
-            let mut kept = Vec::with_capacity(list.len());
-            for (i, tx) in list.drain(..).enumerate() {
-                let sent = match (i == last, events.as_ref()) {
-                    (false, Some(evs)) => evs.iter().all(|ev| tx.send(Ok(ev.clone())).is_ok()),
-                    _ => events.take().into_iter().flatten().all(|ev| tx.send(Ok(ev)).is_ok()),
-                };
-                if sent {
-                    kept.push(tx);
+            let events = job_events(&update);
+            if let Some(last) = list.pop() {
+                list.retain(|tx| events.iter().all(|ev| tx.send(Ok(ev.clone())).is_ok()));
+                if events.into_iter().all(|ev| last.send(Ok(ev)).is_ok()) {
+                    list.push(last);
                 }
             }
-            *list = kept;
         }
         if final_update {
             self.watchers.remove(&job);
