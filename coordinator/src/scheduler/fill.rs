@@ -99,7 +99,6 @@ impl Scheduler {
         }
         order.sort_by_key(|id| (-self.jobs[id].spec.priority, *id));
         let max_worker = self.config.max_worker_failures;
-        let ids: Vec<WorkerId> = self.ready.iter().copied().collect();
         // Per job in `order`, once a worker has looked at every hand-out of
         // a split job and found none: the slowest holder's pace among
         // them. A worker slower than four times that finds none either
@@ -107,7 +106,15 @@ impl Scheduler {
         // look. With 10,000 idle workers, each looking at thousands of
         // hand-outs, this took up to a sixth of a coordinator's CPU.
         let mut slowest_holder: Vec<Option<f64>> = vec![None; order.len()];
-        for wid in ids {
+        // The idle workers in id order, walked from a cursor rather than
+        // copied: most calls end at the first worker (nothing is left to
+        // speculate), and copying 10,000 idle workers' ids on every result
+        // was half the coordinator's CPU a tile at that size. Hand-outs only
+        // take the current worker out of `ready`, so the walk visits the
+        // same workers the copy did.
+        let mut after: Option<WorkerId> = None;
+        while let Some(wid) = self.next_ready(after) {
+            after = Some(wid);
             let own_pace = self.workers.get(&wid).and_then(|w| w.pace.tile_seconds);
             while self.workers.get(&wid).is_some_and(|w| (w.in_flight.len() as u32) < self.slots(w))
             {

@@ -198,6 +198,14 @@ impl Scheduler {
         }
     }
 
+    /// The first worker with a free slot whose id is above `after` (the
+    /// first of all for `None`): a walk over `ready` that may change it.
+    pub(super) fn next_ready(&self, after: Option<WorkerId>) -> Option<WorkerId> {
+        use std::ops::Bound::{Excluded, Unbounded};
+        let from = after.map_or(Unbounded, Excluded);
+        self.ready.range((from, Unbounded)).next().copied()
+    }
+
     /// Keeps `ready` equal to the set of workers with a free slot.
     pub(super) fn refresh_ready(&mut self, worker: WorkerId) {
         match self.workers.get(&worker) {
