@@ -106,15 +106,19 @@ impl Scheduler {
         // look. With 10,000 idle workers, each looking at thousands of
         // hand-outs, this took up to a sixth of a coordinator's CPU.
         let mut slowest_holder: Vec<Option<f64>> = vec![None; order.len()];
-        // The idle workers in id order, walked from a cursor rather than
-        // copied: most calls end at the first worker (nothing is left to
-        // speculate), and copying 10,000 idle workers' ids on every result
-        // was half the coordinator's CPU a tile at that size. Hand-outs only
-        // take the current worker out of `ready`, so the walk visits the
-        // same workers the copy did.
-        let mut after: Option<WorkerId> = None;
-        while let Some(wid) = self.next_ready(after) {
-            after = Some(wid);
+        // The idle workers in id order. Most calls end at the first one
+        // (nothing is left to speculate), and copying 10,000 idle workers'
+        // ids on every result was the largest single cost of a tile at that
+        // size; so the first is looked up alone, and the others copied only
+        // once it is done with. Hand-outs only take the current worker out
+        // of `ready`, so this visits the workers one copy made first would.
+        let mut rest: Option<std::vec::IntoIter<WorkerId>> = None;
+        loop {
+            let next = match rest.as_mut() {
+                Some(ids) => ids.next(),
+                None => self.ready.first().copied(),
+            };
+            let Some(wid) = next else { break };
             let own_pace = self.workers.get(&wid).and_then(|w| w.pace.tile_seconds);
             while self.workers.get(&wid).is_some_and(|w| (w.in_flight.len() as u32) < self.slots(w))
             {
@@ -194,6 +198,9 @@ impl Scheduler {
                     None if order.iter().all(|id| self.jobs[id].out_order.is_empty()) => return,
                     None => break,
                 }
+            }
+            if rest.is_none() {
+                rest = Some(self.ready_after(wid).into_iter());
             }
         }
     }

@@ -198,12 +198,10 @@ impl Scheduler {
         }
     }
 
-    /// The first worker with a free slot whose id is above `after` (the
-    /// first of all for `None`): a walk over `ready` that may change it.
-    pub(super) fn next_ready(&self, after: Option<WorkerId>) -> Option<WorkerId> {
+    /// The workers with a free slot whose ids are above `after`, in order.
+    pub(super) fn ready_after(&self, after: WorkerId) -> Vec<WorkerId> {
         use std::ops::Bound::{Excluded, Unbounded};
-        let from = after.map_or(Unbounded, Excluded);
-        self.ready.range((from, Unbounded)).next().copied()
+        self.ready.range((Excluded(after), Unbounded)).copied().collect()
     }
 
     /// Keeps `ready` equal to the set of workers with a free slot.
