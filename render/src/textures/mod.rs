@@ -52,6 +52,9 @@ pub trait TexValue:
     fn splat(v: f32) -> Self;
     /// From RGB (floats take the luminance).
     fn from_spectrum(s: Spectrum) -> Self;
+    /// The one channel of a value that has several, all with the same
+    /// bits (a grey texel); `None` for anything else and for floats.
+    fn grey(self) -> Option<f32>;
 }
 
 impl TexValue for f32 {
@@ -64,6 +67,9 @@ impl TexValue for f32 {
     fn from_spectrum(s: Spectrum) -> f32 {
         s.y()
     }
+    fn grey(self) -> Option<f32> {
+        None
+    }
 }
 
 impl TexValue for Spectrum {
@@ -75,6 +81,10 @@ impl TexValue for Spectrum {
     }
     fn from_spectrum(s: Spectrum) -> Spectrum {
         s
+    }
+    fn grey(self) -> Option<f32> {
+        let r = self.r.to_bits();
+        (r == self.g.to_bits() && r == self.b.to_bits()).then_some(self.r)
     }
 }
 
