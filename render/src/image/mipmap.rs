@@ -330,12 +330,19 @@ impl<T: Texel> MipMap<T> {
         let (st, a, b, c) = (e.st, e.a, e.b, e.c);
         let mut sum = T::default();
         let mut sum_wts = 0.0f32;
+        // `is as f32`, counted in floats where that is exact (integers below
+        // 2^24): the conversion from an integer writes only the low lane of
+        // its register, so it waited for the last iteration's use of that
+        // register, which made the texel and weight loads one chain.
+        let counted = e.s.0.abs() < 1 << 24 && e.s.1.abs() < 1 << 24;
         for it in e.t.0..=e.t.1 {
             let tt = it as f32 - st.y;
             // The row's wrapped index, once a row (`texel`'s, inlined).
             let row = wrap_index(it, l.h, self.wrap);
+            let mut is_f = e.s.0 as f32;
             for is in e.s.0..=e.s.1 {
-                let ss = is as f32 - st.x;
+                let ss = if counted { is_f } else { is as f32 } - st.x;
+                is_f += 1.0;
                 let r2 = a * ss * ss + b * ss * tt + c * tt * tt;
                 if r2 < 1.0 {
                     // `as usize` of the product, saturating at 0, as a
