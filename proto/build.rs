@@ -8,6 +8,12 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     }
     let fds = protox::compile(protos, ["."])?;
     // Every service encodes through farm_proto's codec (see src/codec.rs).
-    tonic_prost_build::configure().codec_path("crate::codec::ReservingCodec").compile_fds(fds)?;
+    // A finished image's rows are slices of one shared buffer
+    // (`convert::image::image_chunks`), not copies.
+    tonic_prost_build::configure()
+        .codec_path("crate::codec::ReservingCodec")
+        .bytes(".renderfarm.v1.JobImage.rgb")
+        .bytes(".renderfarm.v1.JobImage.error_map")
+        .compile_fds(fds)?;
     Ok(())
 }

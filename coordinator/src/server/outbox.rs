@@ -10,7 +10,7 @@ use crate::scheduler::{Assignment, JobUpdate, Outbox, Record};
 use crate::state::{Command, Journal};
 use farm_common::ids::{JobId, TileAttempt, WorkerId};
 use farm_common::stats::RayStats;
-use farm_proto::convert::{image_chunks, FireflyFacts, ImageFacts};
+use farm_proto::convert::{image_chunks, le_bytes, FireflyFacts, ImageFacts};
 use farm_proto::v1::{self, coordinator_message, job_event};
 use prost::Message;
 use std::collections::HashMap;
@@ -79,8 +79,14 @@ pub(crate) fn job_events(update: &JobUpdate) -> Vec<v1::JobEvent> {
                     }
                 }),
             };
-            let error = f.error.as_ref().map(|e| (e.per_pixel.as_slice(), e.rel_mse));
-            image_chunks(&f.image, error, &facts)
+            // The chunks' rows are slices of the finished job's own
+            // buffers, which they keep alive.
+            let rgb = le_bytes(f.clone(), |f| f.image.pixels.as_flattened());
+            let error = f.error.as_ref().map(|e| {
+                (le_bytes(f.clone(), |f| f.error.as_ref().map_or(&[], |e| &e.per_pixel)), e.rel_mse)
+            });
+            let error = error.as_ref().map(|(b, e)| (b, *e));
+            image_chunks((f.image.width, f.image.height), &rgb, error, &facts)
                 .into_iter()
                 .map(|img| v1::JobEvent { kind: Some(job_event::Kind::Image(img)) })
                 .collect()

@@ -438,11 +438,11 @@ mod tests {
                 width: 3,
                 height: 4,
                 first_row: rows.start as u32,
-                rgb: px.iter().flatten().flat_map(|v| v.to_le_bytes()).collect(),
+                rgb: px.iter().flatten().flat_map(|v| v.to_le_bytes()).collect::<Vec<u8>>().into(),
                 error_map: if with_error {
-                    e.iter().flat_map(|v| v.to_le_bytes()).collect()
+                    e.iter().flat_map(|v| v.to_le_bytes()).collect::<Vec<u8>>().into()
                 } else {
-                    Vec::new()
+                    Default::default()
                 },
                 ..Default::default()
             };

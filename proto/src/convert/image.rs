@@ -4,6 +4,7 @@
 
 use crate::error::{Error, Result};
 use crate::v1;
+use bytes::Bytes;
 use farm_common::film::{PassEnd, PassStop};
 use farm_common::image::RgbImage;
 use farm_common::le::extend_f32s;
@@ -86,31 +87,53 @@ pub struct AssembledImage {
     pub facts: ImageFacts,
 }
 
-/// The chunks of rows `image` travels in. `error` is the per-pixel
-/// estimate (one value per pixel) and the image's estimate, if any.
+/// `values` as the wire's little-endian bytes, kept alive by `owner`: on a
+/// little-endian host the values' own memory, shared and not copied (a
+/// finished 2048² image is 50 MB, and every watcher and the journal send
+/// or store it); elsewhere a copy.
+pub fn le_bytes<O: Send + 'static>(owner: O, values: fn(&O) -> &[f32]) -> Bytes {
+    struct Shared<O> {
+        owner: O,
+        values: fn(&O) -> &[f32],
+    }
+    impl<O> AsRef<[u8]> for Shared<O> {
+        fn as_ref(&self) -> &[u8] {
+            bytemuck::cast_slice((self.values)(&self.owner))
+        }
+    }
+    if cfg!(target_endian = "little") {
+        Bytes::from_owner(Shared { owner, values })
+    } else {
+        let mut out = Vec::new();
+        extend_f32s(&mut out, values(&owner));
+        Bytes::from(out)
+    }
+}
+
+/// The chunks of rows a `width` × `height` image travels in: `rgb` is its
+/// pixels as little-endian f32 RGB, and `error` the per-pixel estimate
+/// (one little-endian f32 a pixel) and the image's, if any. Each chunk's
+/// rows are a slice of these, not a copy.
 pub fn image_chunks(
-    image: &RgbImage,
-    error: Option<(&[f32], f64)>,
+    (w, h): (usize, usize),
+    rgb: &Bytes,
+    error: Option<(&Bytes, f64)>,
     facts: &ImageFacts,
 ) -> Vec<v1::JobImage> {
-    let (w, h) = (image.width, image.height);
     let rows_per_chunk = (IMAGE_CHUNK_BYTES / (w * 12).max(1)).max(1);
+    let rows = |bytes: &Bytes, y0: usize, y1: usize, px: usize| {
+        bytes.get(y0 * w * px..y1 * w * px).map_or_else(Bytes::new, |r| bytes.slice_ref(r))
+    };
     (0..h.max(1))
         .step_by(rows_per_chunk)
         .map(|y0| {
             let y1 = (y0 + rows_per_chunk).min(h);
-            let mut rgb = Vec::with_capacity((y1 - y0) * w * 12);
-            let pixels = image.pixels.get(y0 * w..y1 * w).unwrap_or_default();
-            extend_f32s(&mut rgb, pixels.as_flattened());
-            let mut error_map = Vec::new();
-            let errors = error.and_then(|(per_pixel, _)| per_pixel.get(y0 * w..y1 * w));
-            extend_f32s(&mut error_map, errors.unwrap_or_default());
             v1::JobImage {
                 width: w as u32,
                 height: h as u32,
-                rgb,
+                rgb: rows(rgb, y0, y1, 12),
                 first_row: y0 as u32,
-                error_map,
+                error_map: error.map_or_else(Bytes::new, |(e, _)| rows(e, y0, y1, 4)),
                 estimated_rel_mse: error.map(|(_, e)| e),
                 spp: facts.spp,
                 render_seconds: facts.render_seconds,
@@ -126,6 +149,17 @@ pub fn image_chunks(
             }
         })
         .collect()
+}
+
+/// [`image_chunks`] of an image and error map held elsewhere, copied once.
+pub fn image_chunks_copied(
+    image: &RgbImage,
+    error: Option<(&[f32], f64)>,
+    facts: &ImageFacts,
+) -> Vec<v1::JobImage> {
+    let rgb = le_bytes(image.pixels.clone(), |p| p.as_flattened());
+    let error = error.map(|(e, v)| (le_bytes(e.to_vec(), |e| e.as_slice()), v));
+    image_chunks((image.width, image.height), &rgb, error.as_ref().map(|(e, v)| (e, *v)), facts)
 }
 
 /// Collects an image sent as chunks of rows.
@@ -221,7 +255,7 @@ mod tests {
             stopped: Some(PassStop::TargetReached),
             fireflies: Some(FireflyFacts { pixels: 12, rel_mse: 0.5, brightest: (3, 4) }),
         };
-        let chunks = image_chunks(&img, Some((&map, 2e-3)), &facts);
+        let chunks = image_chunks_copied(&img, Some((&map, 2e-3)), &facts);
         assert!(chunks.len() > 1, "{} chunks", chunks.len());
         let mut a = ImageAssembler::default();
         let mut done = None;
@@ -239,12 +273,12 @@ mod tests {
     #[test]
     fn chunks_that_do_not_continue_the_image_are_refused() {
         let img = image(4, 3);
-        let chunks = image_chunks(&img, None, &ImageFacts::default());
+        let chunks = image_chunks_copied(&img, None, &ImageFacts::default());
         let mut late = chunks[0].clone();
         late.first_row = 1;
         assert!(matches!(ImageAssembler::default().add(&late), Err(Error::ImageChunk { .. })));
         let mut short = chunks[0].clone();
-        short.rgb.pop();
+        short.rgb.truncate(short.rgb.len() - 1);
         assert!(ImageAssembler::default().add(&short).is_err());
         let mut tall = chunks[0].clone();
         tall.height = 2;

@@ -10,8 +10,8 @@ mod tile;
 
 pub use blob::{blob_chunks, BlobAssembler, ChunkSequence};
 pub use image::{
-    image_chunks, stop_from_name, stop_name, AssembledImage, FireflyFacts, ImageAssembler,
-    ImageFacts, IMAGE_CHUNK_BYTES,
+    image_chunks, image_chunks_copied, le_bytes, stop_from_name, stop_name, AssembledImage,
+    FireflyFacts, ImageAssembler, ImageFacts, IMAGE_CHUNK_BYTES,
 };
 pub use preview::{decode_preview, push_piece, PREVIEW_PIECE};
 pub use scene::{
