@@ -282,15 +282,18 @@ impl Bvh {
         let r = SlabRay::new(ray);
         let mut shortened = *ray;
         let mut hit = false;
-        // Entries: child, leaf primitive count (0 for a node), entry distance.
-        let mut stack: Stack<(u32, u32, f32)> = Stack::new();
+        // Entries: child and leaf primitive count (0 for a node) in one
+        // word, and the entry distance: written and read in the same
+        // widths, so a pop soon after a push is served by the store.
+        let mut stack: Stack<(u64, f32)> = Stack::new();
         // The nearest child hit is visited next without going through the stack.
-        let mut next = Some((0, 0, f32::NEG_INFINITY));
-        while let Some((child, count, t_near)) = next.take().or_else(|| stack.pop()) {
+        let mut next = Some((0u64, f32::NEG_INFINITY));
+        while let Some((entry, t_near)) = next.take().or_else(|| stack.pop()) {
             // A hit found since this entry was pushed may have passed it.
             if t_near >= shortened.t_max {
                 continue;
             }
+            let (child, count) = (entry as u32, (entry >> 32) as u32);
             if count > 0 {
                 for i in child as usize..(child + count) as usize {
                     if let Some(t) = f(i, &shortened) {
@@ -304,26 +307,31 @@ impl Bvh {
             }
             let node = &self.nodes[child as usize];
             let (mut mask, t) = node.hit(&r, shortened.t_max);
-            // The children hit, farthest first, so that the nearest is popped next.
-            let mut sorted = [(0u32, 0u32, 0f32); WIDTH];
+            // The children hit, farthest first, so that the nearest is
+            // popped next: an insertion sort whose entries and distances
+            // are kept apart, so each is moved in the width it was written.
+            let mut entries = [0u64; WIDTH];
+            let mut dists = [0f32; WIDTH];
             let mut k = 0;
             while mask != 0 {
                 let l = mask.trailing_zeros() as usize;
                 mask &= mask - 1;
-                let e = (node.child[l], node.count[l] as u32, t[l]);
+                let (e, d) = (u64::from(node.child[l]) | u64::from(node.count[l]) << 32, t[l]);
                 let mut j = k;
-                while j > 0 && sorted[j - 1].2 < e.2 {
-                    sorted[j] = sorted[j - 1];
+                while j > 0 && dists[j - 1] < d {
+                    entries[j] = entries[j - 1];
+                    dists[j] = dists[j - 1];
                     j -= 1;
                 }
-                sorted[j] = e;
+                entries[j] = e;
+                dists[j] = d;
                 k += 1;
             }
             if k > 0 {
-                for &e in &sorted[..k - 1] {
-                    stack.push(e);
+                for i in 0..k - 1 {
+                    stack.push((entries[i], dists[i]));
                 }
-                next = Some(sorted[k - 1]);
+                next = Some((entries[k - 1], dists[k - 1]));
             }
         }
         hit
