@@ -163,8 +163,9 @@ impl Outbox for GrpcOutbox {
             self.progressed.push(job);
         }
         if let Some(list) = self.watchers.get_mut(&job) {
-            // The last watcher (most often the only one) is given the
-            // events themselves: a finished image is not copied for it.
+            // A finished image's chunks share the finished job's buffers
+            // (`job_events`), so a copy for each watcher copies only the
+            // small fields; the last watcher is given the events themselves.
             let events = job_events(&update);
             if let Some(last) = list.pop() {
                 list.retain(|tx| events.iter().all(|ev| tx.send(Ok(ev.clone())).is_ok()));

@@ -334,7 +334,7 @@ impl<T: Texel> MipMap<T> {
         // 2^24): the conversion from an integer writes only the low lane of
         // its register, so it waited for the last iteration's use of that
         // register, which made the texel and weight loads one chain.
-        let counted = e.s.0.abs() < 1 << 24 && e.s.1.abs() < 1 << 24;
+        let counted = e.s.0.unsigned_abs() < 1 << 24 && e.s.1.unsigned_abs() < 1 << 24;
         for it in e.t.0..=e.t.1 {
             let tt = it as f32 - st.y;
             // The row's wrapped index, once a row (`texel`'s, inlined).
@@ -416,6 +416,19 @@ mod tests {
                         }
                     }
                 }
+            }
+        }
+    }
+
+    #[test]
+    fn lookups_at_coordinates_past_the_integers_do_not_panic() {
+        // Texel boxes whose corners saturate at i64::MIN or MAX (a planar
+        // mapping far from its origin), with overflow checks on in tests.
+        let m = MipMap::new(4, 4, vec![0.5f32; 16], false, 8.0, WrapMode::Repeat);
+        for x in [-1e19f32, 1e19, -3e38, 3e38, f32::NEG_INFINITY] {
+            for d in [1e-6f32, 0.01] {
+                let v = m.lookup_ewa(Vec2::new(x, 0.25), Vec2::new(d, 0.0), Vec2::new(0.0, d));
+                assert!(v.is_nan() || v == 0.5 || v == 0.0, "{x} {d}: {v}");
             }
         }
     }
