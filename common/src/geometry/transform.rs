@@ -127,6 +127,7 @@ impl Transform {
     }
 
     /// A ray with its differentials.
+    #[inline]
     pub fn ray_differential(&self, r: &RayDifferential) -> RayDifferential {
         RayDifferential {
             ray: self.ray(&r.ray),
