@@ -132,8 +132,7 @@ pub fn levelled_errors(
         (values, across)
     };
     // Its pages mapped in one call, then written in order.
-    let mut errors = vec![0.0; width * height];
-    crate::pages::populate(&mut errors);
+    let mut errors = crate::pages::mapped(0.0, width * height);
     let (mut above, mut here) = (None, (height > 0).then(|| row(0)));
     for y in 0..height {
         let below = (y + 1 < height).then(|| row(y + 1));
@@ -256,8 +255,7 @@ impl ErrorEstimate {
     /// counted, from the same pass.
     pub(crate) fn with_totals(bounds: Bounds2i, values: &[f64]) -> Option<(Self, (f64, usize))> {
         let (width, height) = (bounds.width().max(0) as usize, bounds.height().max(0) as usize);
-        let mut per_pixel = vec![0.0f32; values.len()];
-        crate::pages::populate(&mut per_pixel);
+        let mut per_pixel = crate::pages::mapped(0.0f32, values.len());
         let (mut sum, mut counted) = (0.0f64, 0usize);
         for (p, &v) in per_pixel.iter_mut().zip(values) {
             if let Some(e) = counted_error(v) {

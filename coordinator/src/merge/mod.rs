@@ -433,8 +433,7 @@ impl Film {
         let scale = self.geometry.scale;
         // Fresh pages, mapped in one call (`crate::pages`) rather than one
         // fault a page as the pixels are written.
-        let mut pixels = vec![[0.0f32; 3]; self.sums.value.len()];
-        crate::pages::populate(&mut pixels);
+        let mut pixels = crate::pages::mapped([0.0f32; 3], self.sums.value.len());
         for (p, &[r, g, b, w]) in pixels.iter_mut().zip(&self.sums.value) {
             *p = resolve([r, g, b], w, scale);
         }

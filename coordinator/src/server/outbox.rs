@@ -85,8 +85,7 @@ pub(crate) fn job_events(update: &JobUpdate) -> Vec<v1::JobEvent> {
             let error = f.error.as_ref().map(|e| {
                 (le_bytes(f.clone(), |f| f.error.as_ref().map_or(&[], |e| &e.per_pixel)), e.rel_mse)
             });
-            let error = error.as_ref().map(|(b, e)| (b, *e));
-            image_chunks((f.image.width, f.image.height), &rgb, error, &facts)
+            image_chunks((f.image.width, f.image.height), &rgb, error.as_ref(), &facts)
                 .into_iter()
                 .map(|img| v1::JobEvent { kind: Some(job_event::Kind::Image(img)) })
                 .collect()

@@ -117,7 +117,7 @@ pub fn le_bytes<O: Send + 'static>(owner: O, values: fn(&O) -> &[f32]) -> Bytes 
 pub fn image_chunks(
     (w, h): (usize, usize),
     rgb: &Bytes,
-    error: Option<(&Bytes, f64)>,
+    error: Option<&(Bytes, f64)>,
     facts: &ImageFacts,
 ) -> Vec<v1::JobImage> {
     let rows_per_chunk = (IMAGE_CHUNK_BYTES / (w * 12).max(1)).max(1);
@@ -134,7 +134,7 @@ pub fn image_chunks(
                 rgb: rows(rgb, y0, y1, 12),
                 first_row: y0 as u32,
                 error_map: error.map_or_else(Bytes::new, |(e, _)| rows(e, y0, y1, 4)),
-                estimated_rel_mse: error.map(|(_, e)| e),
+                estimated_rel_mse: error.map(|(_, e)| *e),
                 spp: facts.spp,
                 render_seconds: facts.render_seconds,
                 stats: Some(v1::RayStats::from(&facts.stats)),
@@ -159,7 +159,7 @@ pub fn image_chunks_copied(
 ) -> Vec<v1::JobImage> {
     let rgb = le_bytes(image.pixels.clone(), |p| p.as_flattened());
     let error = error.map(|(e, v)| (le_bytes(e.to_vec(), |e| e.as_slice()), v));
-    image_chunks((image.width, image.height), &rgb, error.as_ref().map(|(e, v)| (e, *v)), facts)
+    image_chunks((image.width, image.height), &rgb, error.as_ref(), facts)
 }
 
 /// Collects an image sent as chunks of rows.
