@@ -207,12 +207,29 @@ impl std::fmt::Debug for Journal {
     }
 }
 
-/// Encodes a tile result for [`Command::Merged`].
+/// Encodes a tile result for [`Command::Merged`]: the bytes of postcard's
+/// encoding of `(tile, stats)`, which restoring decodes.
+///
+/// postcard writes a struct as its fields in order, a sequence as its
+/// length (a varint) and then its items, and an `f32` as its four
+/// little-endian bytes, so the pixels are written here as their sums'
+/// bytes in field order ([`farm_common::film::Pixel::to_array`]). Through serde, one call per
+/// float that pushed one byte at a time, this was 8% of the coordinator's
+/// CPU while tiles came in.
 pub fn encode_tile(tile: &FilmTile, stats: &RayStats) -> Vec<u8> {
-    // Sized up front: grown as postcard writes, the 8 KB of a tile were
-    // reallocated a dozen times.
-    let room = 64 + tile.pixels.len() * std::mem::size_of::<farm_common::film::Pixel>();
-    postcard::to_extend(&(tile, stats), Vec::with_capacity(room)).unwrap_or_default()
+    const PIXEL: usize = std::mem::size_of::<[f32; 8]>();
+    // Sized up front, so nothing is reallocated.
+    let mut out = Vec::with_capacity(64 + tile.pixels.len() * PIXEL);
+    let head = (&tile.pixel_bounds, tile.pixels.len() as u64);
+    out = postcard::to_extend(&head, out).unwrap_or_default();
+    for p in &tile.pixels {
+        let mut bytes = [0u8; PIXEL];
+        for (b, f) in bytes.chunks_exact_mut(4).zip(p.to_array()) {
+            b.copy_from_slice(&f.to_le_bytes());
+        }
+        out.extend_from_slice(&bytes);
+    }
+    postcard::to_extend(stats, out).unwrap_or_default()
 }
 
 impl Journal {

@@ -257,3 +257,41 @@ async fn a_finished_image_is_read_back_as_the_events_a_watcher_is_sent() {
     assert!(read(&j, 5).await.unwrap().is_empty(), "a purged job's image is forgotten");
     std::fs::remove_dir_all(&dir).ok();
 }
+
+/// A tile's record has postcard's bytes, which restoring decodes: for
+/// tiles of every size a job's tiles come in (cut by a crop window at
+/// negative coordinates too), with sums of any bits, and large counts.
+#[test]
+fn a_tile_is_encoded_as_postcard_encodes_it() {
+    use farm_common::film::FilmTile;
+    let mut rng = farm_common::rng::Rng::new(7);
+    for (x0, y0, w, h) in [(0, 0, 16, 16), (-3, -40, 5, 1), (1000, 7, 0, 0), (2, 3, 13, 7)] {
+        let bounds = Bounds2i::new(Point2i::new(x0, y0), Point2i::new(x0 + w, y0 + h));
+        let mut tile = FilmTile::new(bounds);
+        for p in &mut tile.pixels {
+            let mut f = || f32::from_bits(rng.uniform_u32());
+            *p = farm_common::film::Pixel {
+                contrib: [f(), f(), f()],
+                weight: f(),
+                second_contrib: [f(), f(), f()],
+                second_weight: f(),
+            };
+        }
+        let stats = RayStats {
+            camera_rays: u64::MAX,
+            shadow_rays: 300,
+            secondary_rays: 1 << 40,
+            nan_samples: 0,
+            inf_samples: 127,
+            negative_samples: 128,
+        };
+        let ours = encode_tile(&tile, &stats);
+        assert_eq!(ours, postcard::to_stdvec(&(&tile, &stats)).unwrap(), "{bounds:?}");
+        let (back, s): (FilmTile, RayStats) = postcard::from_bytes(&ours).unwrap();
+        assert_eq!((back.pixel_bounds, s), (tile.pixel_bounds, stats));
+        let bits = |t: &FilmTile| -> Vec<u32> {
+            t.pixels.iter().flat_map(|p| p.to_array()).map(f32::to_bits).collect()
+        };
+        assert_eq!(bits(&back), bits(&tile));
+    }
+}
