@@ -102,6 +102,26 @@ struct Capacity {
     cpu_steady: f64,
     wall_image: f64,
     cpu_image: f64,
+    /// The longest the coordinator's event loop took to answer a probe
+    /// while the job ran ([`probe_loop`]), in seconds.
+    stall: f64,
+}
+
+/// Asks the coordinator every 2 ms, until `stop`, to cancel a job that
+/// does not exist (two events through its loop: the owner check and the
+/// cancel), and returns the longest wait for an answer: how long the loop
+/// was busy with one thing while the job ran, such as a film's end.
+async fn probe_loop(url: String, stop: Arc<std::sync::atomic::AtomicBool>) -> f64 {
+    let remote = farm_cli::client::Remote::insecure(&url);
+    let Ok(mut c) = client::connect(&remote).await else { return f64::NAN };
+    let mut longest = 0f64;
+    while !stop.load(std::sync::atomic::Ordering::Relaxed) {
+        let t = Instant::now();
+        let _ = c.cancel_job(v1::CancelJobRequest { job_id: u64::MAX }).await;
+        longest = longest.max(t.elapsed().as_secs_f64());
+        tokio::time::sleep(Duration::from_millis(2)).await;
+    }
+    longest
 }
 
 /// The progress events a run reads the coordinator's CPU at: the first
@@ -167,6 +187,8 @@ async fn capacity_run(
     let mut marks = Marks::default();
     let opts = RemoteOptions::default();
     let remote = farm_cli::client::Remote::insecure(&url);
+    let stop = Arc::new(std::sync::atomic::AtomicBool::new(false));
+    let probe = tokio::spawn(probe_loop(url.clone(), stop.clone()));
     let job = client::submit(&remote, scene, &opts, |_, p| {
         marks.progress(p.tiles_done, p.tiles_total, || cpu_seconds(&pid));
     });
@@ -176,9 +198,11 @@ async fn capacity_run(
         Err(_) => return Err("timed out after 300 s".into()),
     }
     let (wall_image, cpu_image) = (t.elapsed().as_secs_f64(), cpu()? - cpu0);
+    stop.store(true, std::sync::atomic::Ordering::Relaxed);
+    let stall = probe.await.unwrap_or(f64::NAN);
     drop(procs);
     let cpu_steady = marks.per_tile().ok_or("no progress events at 10% and 90%")?;
-    Ok(Capacity { register, cpu_steady, wall_image, cpu_image })
+    Ok(Capacity { register, cpu_steady, wall_image, cpu_image, stall })
 }
 
 pub(super) fn capacity_table(rt: &Runtime) {
@@ -202,11 +226,11 @@ pub(super) fn capacity_table(rt: &Runtime) {
         Err(_) => FAKE_WORKERS.to_vec(),
     };
     println!(
-        "{:>7} {:>7} {:>7} | {:>10} {:>12} | {:>10} {:>10} {:>12} | {:>8}",
-        "", "", "", "10-90%", "", "to image", "", "", "job"
+        "{:>7} {:>7} {:>7} | {:>10} {:>12} | {:>10} {:>10} {:>12} | {:>8} {:>8}",
+        "", "", "", "10-90%", "", "to image", "", "", "job", "stall"
     );
     println!(
-        "{:>7} {:>7} {:>7} | {:>10} {:>12} | {:>10} {:>10} {:>12} | {:>8}",
+        "{:>7} {:>7} {:>7} | {:>10} {:>12} | {:>10} {:>10} {:>12} | {:>8} {:>8}",
         "workers",
         "tiles",
         "joined",
@@ -215,6 +239,7 @@ pub(super) fn capacity_table(rt: &Runtime) {
         "tiles/s",
         "µs/tile",
         "tiles/s/core",
+        "ms",
         "ms"
     );
     for workers in counts {
@@ -240,7 +265,7 @@ pub(super) fn capacity_table(rt: &Runtime) {
         let steady = median(&|c| c.cpu_steady);
         let (wi, ci) = (median(&|c| c.wall_image), median(&|c| c.cpu_image));
         println!(
-            "{workers:>7} {n:>7} {:>7.2} | {:>10.1} {:>12.0} | {:>10.0} {:>10.1} {:>12.0} | {:>8.0}",
+            "{workers:>7} {n:>7} {:>7.2} | {:>10.1} {:>12.0} | {:>10.0} {:>10.1} {:>12.0} | {:>8.0} {:>8.1}",
             median(&|c| c.register),
             1e6 * steady,
             1.0 / steady,
@@ -248,6 +273,7 @@ pub(super) fn capacity_table(rt: &Runtime) {
             per_tile(ci),
             rate(ci),
             1e3 * median(&|c| c.cpu_image - c.cpu_steady * n as f64),
+            1e3 * median(&|c| c.stall),
         );
     }
     let _ = std::fs::remove_dir_all(&dir);
@@ -260,7 +286,9 @@ pub(super) fn capacity_table(rt: &Runtime) {
          the submit call to the finished {}×{} image received by the client: tiles/s over wall \
          seconds, and the coordinator's CPU a tile and its inverse. Job = the coordinator's CPU \
          to image less 10-90%'s cost for every tile: the job's own start and end (its film, \
-         estimate and image), which grow with pixels. The client's and the fake workers' CPU \
+         estimate and image), which grow with pixels. Stall = the longest the coordinator's \
+         event loop took to answer a probe sent every 2 ms while the job ran (two events: a \
+         cancel of a job that does not exist). The client's and the fake workers' CPU \
          is left out. The fake workers share {FAKE_CONNECTIONS} connections and ask for \
          tiles/workers tiles each (1 to 32).",
         tiles.geometry.cropped_pixel_bounds.width(),
