@@ -140,6 +140,9 @@ pub(super) struct Job {
     pub(super) done_tiles: u32,
     pub(super) last_progress: Instant,
     pub(super) finished: Option<std::sync::Arc<FinishedJob>>,
+    /// A complete film being ended ([`super::Outbox::end_film`]): the
+    /// samples per pixel and render seconds its image will carry.
+    pub(super) ending: Option<(u32, f64)>,
     /// When it ended (seconds since the epoch), for its retention.
     pub(super) ended_at: Option<i64>,
     /// A finished job's estimate of its own relMSE.
@@ -181,6 +184,7 @@ impl Job {
             done_tiles: 0,
             last_progress: now,
             finished: None,
+            ending: None,
             ended_at: None,
             rel_mse: None,
             pass: 0,

@@ -2,7 +2,7 @@
 //! failure or cancellation, and what each tile result does to them.
 
 use super::job::{Job, JobSpec, JobState, Owner, Snapshot};
-use super::{FinishedJob, JobUpdate, Outbox, Record, Scheduler};
+use super::{EndedFilm, FinishedJob, JobUpdate, Outbox, Record, Scheduler};
 use crate::merge::{Accepted, Film};
 use farm_common::film::FilmTile;
 use farm_common::ids::{JobId, TileAttempt, TileId, WorkerId};
@@ -82,7 +82,7 @@ impl Scheduler {
         match self.jobs.get(&key.job) {
             // A job ended while the answer was on its way; a worker declared
             // lost may still have had a few messages in flight.
-            Some(j) if !j.state.is_active() => {
+            Some(j) if !j.state.is_active() || j.ending.is_some() => {
                 debug!(job, tile, "{what} for a finished job ignored")
             }
             _ if !self.workers.contains_key(&worker) => {
@@ -375,6 +375,7 @@ impl Scheduler {
         j.ended_at = Some(crate::state::unix_now());
         out.record(Record::Ended { job, state: &j.state, image: None });
         j.film = None;
+        j.ending = None;
         j.pending.clear();
         j.out_order.clear();
         let spares = j.spares.drain().map(|(_, (w, _))| w);
@@ -391,20 +392,33 @@ impl Scheduler {
         }
     }
 
+    /// Ends a job whose film is complete: its image and estimate are worked
+    /// out by the outbox ([`Outbox::end_film`]), at once or later; the job
+    /// stays running until [`Scheduler::film_ended`] has them.
     pub(super) fn finish(&mut self, job: JobId, out: &mut impl Outbox) {
         let now = self.now();
         let Some(j) = self.jobs.get_mut(&job) else { return };
-        let Some(mut film) = j.film.take() else { return };
+        let Some(film) = j.film.take() else { return };
         let render_seconds = j.started.map(|s| now.duration_since(s).as_secs_f64()).unwrap_or(0.0);
         let spp = j.pass_ends.last().map_or(j.spec.spp, |p| p.spp);
-        // The estimate first: its working buffers (12 bytes a pixel) are
-        // freed before the image's 12 are allocated, and the film's copy of
-        // its map (4) with them, so they are never alive together beside
-        // the film.
-        let error = film.error_estimate(spp);
+        j.ending = Some((spp, render_seconds));
+        if let Some(ended) = out.end_film(job, film, spp) {
+            self.film_ended(job, ended, out);
+        }
+    }
+
+    /// The image and estimate of `job`'s film, which [`Outbox::end_film`]
+    /// worked out: the job is done. Ignored if the job was cancelled (or
+    /// forgotten) meanwhile.
+    pub fn film_ended(&mut self, job: JobId, ended: EndedFilm, out: &mut impl Outbox) {
+        let Some(j) = self.jobs.get_mut(&job) else { return };
+        let Some((spp, render_seconds)) = j.ending.take() else { return };
+        if !j.state.is_active() {
+            return;
+        }
         let finished = std::sync::Arc::new(FinishedJob {
-            image: film.into_image(),
-            error,
+            image: ended.image,
+            error: ended.error,
             spp,
             render_seconds,
             stats: j.stats,

@@ -7,6 +7,8 @@
 //! [`crate::merge`]), so neither the number of workers, their speed, the
 //! order of results nor retries change a bit of the image.
 
+#[cfg(test)]
+mod ending_tests;
 mod fill;
 mod job;
 mod jobs;
@@ -25,7 +27,7 @@ mod views;
 mod workers;
 
 pub use job::{JobRow, JobSpec, JobState, Owner, ShotFrame, Snapshot};
-pub use outbox::{Assignment, FinishedJob, JobUpdate, Outbox, Record};
+pub use outbox::{Assignment, EndedFilm, FinishedJob, JobUpdate, Outbox, Record};
 pub use views::{Gauges, JobView, WorkerView};
 pub use workers::WorkerRow;
 

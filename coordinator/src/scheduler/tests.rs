@@ -14,7 +14,7 @@ use std::time::{Duration, Instant};
 pub(super) struct Recorder {
     pub(super) assigned: Vec<(WorkerId, Assignment)>,
     pub(super) cancelled: Vec<(WorkerId, JobId)>,
-    disconnected: Vec<WorkerId>,
+    pub(super) disconnected: Vec<WorkerId>,
     pub(super) updates: Vec<(JobId, JobUpdate)>,
 }
 
@@ -102,7 +102,7 @@ fn drain(s: &mut Scheduler, out: &mut Recorder, mut pick: impl FnMut(usize) -> u
     }
 }
 
-fn reference_image() -> RgbImage {
+pub(super) fn reference_image() -> RgbImage {
     let mut s = Scheduler::new(SchedulerConfig::default());
     let mut out = Recorder::default();
     s.worker_joined(WorkerId(1), "a".into(), 1, 1, Instant::now(), &mut out);

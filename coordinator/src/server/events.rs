@@ -149,8 +149,13 @@ pub struct LoopState {
 /// Runs the scheduler until the channel closes or `Shutdown` arrives.
 pub async fn run(mut rx: mpsc::UnboundedReceiver<Event>, config: ServerConfig, state: LoopState) {
     let mut sched = Scheduler::new(config.scheduler.clone());
-    let mut out =
-        GrpcOutbox { journal: state.journal, metrics: state.metrics, ..Default::default() };
+    let (ended_tx, mut ended_rx) = mpsc::unbounded_channel();
+    let mut out = GrpcOutbox {
+        journal: state.journal,
+        metrics: state.metrics,
+        ended: Some(ended_tx),
+        ..Default::default()
+    };
     let mut rays_at: (Instant, u64) = (Instant::now(), 0);
     sched.set_next_job(state.next_job);
     for job in state.jobs {
@@ -160,7 +165,23 @@ pub async fn run(mut rx: mpsc::UnboundedReceiver<Event>, config: ServerConfig, s
     let keep = config.state.keep_finished;
     let mut last_purge: Option<Instant> = None;
     let mut unwatched: HashMap<JobId, Instant> = HashMap::new();
-    while let Some(ev) = rx.recv().await {
+    loop {
+        // A film ended off the loop goes first: its watchers wait for it.
+        let ev = tokio::select! {
+            biased;
+            Some((job, ended)) = ended_rx.recv() => Err((job, ended)),
+            ev = rx.recv() => match ev {
+                Some(ev) => Ok(ev),
+                None => break,
+            },
+        };
+        let ev = match ev {
+            Ok(ev) => ev,
+            Err((job, ended)) => {
+                sched.film_ended(job, ended, &mut out);
+                continue;
+            }
+        };
         let now = Instant::now();
         match ev {
             Event::WorkerJoined { id, name, threads, max_in_flight, tx } => {

@@ -5,8 +5,9 @@
 use super::live::RecentImages;
 use crate::error::Error;
 use crate::live::LiveCursor;
+use crate::merge::Film;
 use crate::metrics::Metrics;
-use crate::scheduler::{Assignment, JobUpdate, Outbox, Record};
+use crate::scheduler::{Assignment, EndedFilm, JobUpdate, Outbox, Record};
 use crate::state::{Command, Journal};
 use farm_common::ids::{JobId, TileAttempt, WorkerId};
 use farm_common::stats::RayStats;
@@ -45,7 +46,13 @@ pub(super) struct GrpcOutbox {
     pub(super) handed: HashMap<TileAttempt, Instant>,
     /// Finished images kept a while for the dashboard pages open on them.
     pub(super) recent: RecentImages,
+    /// Where films ended off the event loop go back to it; without it a
+    /// film is ended on the loop.
+    pub(super) ended: Option<EndedTx>,
 }
+
+/// Films ended off the event loop, on their way back to it.
+pub(super) type EndedTx = mpsc::UnboundedSender<(JobId, EndedFilm)>;
 
 fn rpc_stats(s: &RayStats) -> Option<v1::RayStats> {
     Some(v1::RayStats::from(s))
@@ -109,6 +116,19 @@ impl GrpcOutbox {
 }
 
 impl Outbox for GrpcOutbox {
+    /// A complete film's estimate and image are worked out on a blocking
+    /// thread: for a 2048² film that is about 0.16 s in which the loop goes
+    /// on handing out and merging other jobs' tiles.
+    fn end_film(&mut self, job: JobId, film: Film, spp: u32) -> Option<EndedFilm> {
+        let Some(tx) = self.ended.clone() else { return Some(EndedFilm::of(film, spp)) };
+        tokio::task::spawn_blocking(move || {
+            // The loop may have stopped meanwhile; a journalled job then
+            // resumes and ends again when the coordinator starts.
+            let _ = tx.send((job, EndedFilm::of(film, spp)));
+        });
+        None
+    }
+
     fn assign(&mut self, worker: WorkerId, a: Assignment) {
         self.metrics.tiles_dispatched.inc();
         if a.speculative {

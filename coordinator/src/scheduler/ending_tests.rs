@@ -1,0 +1,114 @@
+//! A complete film ended outside the scheduler ([`Outbox::end_film`]
+//! returning `None`, as the server's outbox does): other jobs go on
+//! meanwhile, the image is the one ended at once, and a job cancelled in
+//! between stays cancelled.
+
+use super::tests::{geometry, reference_image, render, spec, Recorder};
+use super::*;
+use crate::merge::Film;
+use farm_common::ids::{TileAttempt, TileId};
+use farm_common::stats::RayStats;
+use std::time::Instant;
+
+/// A recorder that keeps each complete film to be ended later.
+#[derive(Default)]
+struct Later {
+    rec: Recorder,
+    films: Vec<(JobId, Film, u32)>,
+    ended: Vec<JobId>,
+}
+
+impl Outbox for Later {
+    fn assign(&mut self, worker: WorkerId, a: Assignment) {
+        self.rec.assign(worker, a);
+    }
+    fn cancel(&mut self, worker: WorkerId, job: JobId) {
+        self.rec.cancel(worker, job);
+    }
+    fn disconnect(&mut self, worker: WorkerId) {
+        self.rec.disconnect(worker);
+    }
+    fn notify(&mut self, job: JobId, update: JobUpdate) {
+        self.rec.notify(job, update);
+    }
+    fn record(&mut self, change: Record<'_>) {
+        if let Record::Ended { job, .. } = change {
+            self.ended.push(job);
+        }
+    }
+    fn end_film(&mut self, job: JobId, film: Film, spp: u32) -> Option<EndedFilm> {
+        self.films.push((job, film, spp));
+        None
+    }
+}
+
+/// Answers every hand-out of `job` until none is left.
+fn render_all(s: &mut Scheduler, out: &mut Later, job: JobId) {
+    let g = geometry();
+    loop {
+        let mine: Vec<_> = out.rec.take().into_iter().filter(|(_, a)| a.job == job).collect();
+        if mine.is_empty() {
+            return;
+        }
+        for (w, a) in mine {
+            s.tile_done(w, a.key(), render(&g, a.tile), RayStats::default(), out);
+        }
+    }
+}
+
+fn state(s: &Scheduler, job: JobId) -> &'static str {
+    s.jobs[&job].state.name()
+}
+
+#[test]
+fn a_film_ended_later_lets_other_jobs_go_on_and_gives_the_same_image() {
+    let reference = reference_image();
+    let mut s = Scheduler::new(SchedulerConfig::default());
+    let mut out = Later::default();
+    s.worker_joined(WorkerId(1), "a".into(), 1, 4, Instant::now(), &mut out);
+    let first = s.submit(spec(1), &mut out);
+    let second = s.submit(spec(0), &mut out);
+    // The first job's tiles all in: its film waits to be ended, and the
+    // job is still running, not yet reported done to anyone.
+    let g = geometry();
+    let mut held = Vec::new();
+    while out.films.is_empty() {
+        held.extend(out.rec.take());
+        let i = held.iter().position(|(_, a)| a.job == first).expect("a tile of it is out");
+        let (w, a) = held.remove(i);
+        s.tile_done(w, a.key(), render(&g, a.tile), RayStats::default(), &mut out);
+    }
+    out.rec.assigned.extend(held);
+    assert_eq!(state(&s, first), "running");
+    assert!(out.rec.image(first).is_none() && out.ended.is_empty());
+    // Meanwhile the second job's tiles are handed out and merged.
+    render_all(&mut s, &mut out, second);
+    assert_eq!(out.films.len(), 2, "the second film is complete too");
+    assert_eq!(state(&s, first), "running");
+    // A late copy of a tile of the first job is ignored, not merged.
+    let late = TileAttempt { job: first, tile: TileId(0), attempt: 0 };
+    s.tile_done(WorkerId(1), late, render(&g, TileId(0)), RayStats::default(), &mut out);
+    // Ended, in either order: each job done with the image of a film
+    // ended at once.
+    for (job, film, spp) in std::mem::take(&mut out.films).into_iter().rev() {
+        s.film_ended(job, EndedFilm::of(film, spp), &mut out);
+        assert_eq!(state(&s, job), "done");
+        assert_eq!(out.rec.image(job).expect("finished"), reference);
+    }
+    assert_eq!(out.ended, [second, first], "each end is journalled once");
+}
+
+#[test]
+fn a_job_cancelled_while_its_film_is_ended_stays_cancelled() {
+    let mut s = Scheduler::new(SchedulerConfig::default());
+    let mut out = Later::default();
+    s.worker_joined(WorkerId(1), "a".into(), 1, 4, Instant::now(), &mut out);
+    let job = s.submit(spec(0), &mut out);
+    render_all(&mut s, &mut out, job);
+    let (_, film, spp) = out.films.pop().expect("the film is complete");
+    assert!(s.cancel(job, &mut out), "a job being ended is still active");
+    s.film_ended(job, EndedFilm::of(film, spp), &mut out);
+    assert_eq!(state(&s, job), "cancelled");
+    assert!(out.rec.image(job).is_none(), "no image after the cancellation");
+    assert_eq!(out.ended, [job], "the cancellation is its only end");
+}
