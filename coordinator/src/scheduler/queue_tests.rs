@@ -91,3 +91,25 @@ fn frames_join_only_their_owners_shots() {
         assert!(e.contains("no shot"), "{e}");
     }
 }
+
+/// A job submitted with a film made by the caller renders as one
+/// submitted without; a film of another geometry is not used.
+#[test]
+fn a_job_keeps_a_film_made_for_it_and_replaces_one_that_is_not() {
+    use crate::merge::Film;
+    use farm_common::geometry::{Bounds2i, Point2i};
+    let reference = super::tests::reference_image();
+    let mut other = geometry();
+    other.cropped_pixel_bounds = Bounds2i::new(Point2i::new(0, 0), Point2i::new(20, 10));
+    for film in [Film::new(geometry()), Film::new(other)] {
+        let mut s = Scheduler::new(SchedulerConfig::default());
+        let mut out = Recorder::default();
+        s.worker_joined(WorkerId(1), "a".into(), 1, 1, Instant::now(), &mut out);
+        let job = s.submit_with_film(spec(0), film, &mut out);
+        let g = geometry();
+        while let Some((w, a)) = out.take().pop() {
+            s.tile_done(w, a.key(), render(&g, a.tile), RayStats::default(), &mut out);
+        }
+        assert_eq!(out.image(job).expect("finished"), reference);
+    }
+}

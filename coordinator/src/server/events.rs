@@ -5,6 +5,7 @@ use super::live::{live_answer, send_live, Pace};
 use super::outbox::{send_stored, GrpcOutbox};
 use super::ServerConfig;
 use crate::live::LiveCursor;
+use crate::merge::Film;
 use crate::metrics::{Metrics, StateLabel, JOB_STATES};
 use crate::scheduler::{JobRow, JobSpec, JobUpdate, Outbox, Scheduler, Snapshot, WorkerRow};
 use crate::scheduler::{JobView, WorkerView};
@@ -52,6 +53,8 @@ pub enum Event {
     Submit {
         /// The job (boxed: it is the largest event by far).
         spec: Box<JobSpec>,
+        /// Its empty film, made before it reached the loop.
+        film: Box<Film>,
         /// Where to send its id, or why it was refused.
         reply: oneshot::Sender<Result<JobId, crate::error::Error>>,
     },
@@ -216,9 +219,9 @@ pub async fn run(mut rx: mpsc::UnboundedReceiver<Event>, config: ServerConfig, s
                 out.workers.remove(&id);
                 sched.worker_left(id, &mut out);
             }
-            Event::Submit { spec, reply } => {
+            Event::Submit { spec, film, reply } => {
                 let id = match sched.check_shot(&spec) {
-                    Ok(()) => Ok(sched.submit(*spec, &mut out)),
+                    Ok(()) => Ok(sched.submit_with_film(*spec, *film, &mut out)),
                     Err(why) => Err(crate::error::Error::BadShot(why)),
                 };
                 let _ = reply.send(id);

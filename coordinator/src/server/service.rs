@@ -3,6 +3,7 @@
 
 use super::events::{Event, FromWorker};
 use crate::error::Error;
+use crate::merge::Film;
 use crate::scheduler::Owner;
 use crate::security::{require, Action, Principal};
 use crate::state::BlobStore;
@@ -344,8 +345,14 @@ impl Coordinator for CoordinatorService {
         check_version(r.protocol_version)?;
         let owner = Owner { id: by.id, name: by.name };
         let spec = super::submission::job_spec(&self.blobs, &self.limits, r, owner).await?;
+        // The film (its pages mapped, 32 bytes a pixel) is made here, off
+        // the event loop, once the spec has passed its limits.
+        let geometry = spec.geometry.clone();
+        let film = tokio::task::spawn_blocking(move || Box::new(Film::new(geometry)))
+            .await
+            .map_err(|e| Status::internal(format!("making the job's film: {e}")))?;
         let (reply, rx) = oneshot::channel();
-        self.send(Event::Submit { spec: Box::new(spec), reply })?;
+        self.send(Event::Submit { spec: Box::new(spec), film, reply })?;
         let id = answer(rx).await??;
         Ok(Response::new(v1::SubmitJobResponse { job_id: id.0 }))
     }
