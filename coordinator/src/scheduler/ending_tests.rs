@@ -1,7 +1,8 @@
-//! A complete film ended outside the scheduler ([`Outbox::end_film`]
-//! returning `None`, as the server's outbox does): other jobs go on
-//! meanwhile, the image is the one ended at once, and a job cancelled in
-//! between stays cancelled.
+//! A complete film ended, or a pass's film estimated, outside the
+//! scheduler ([`Outbox::end_film`], [`Outbox::estimate_pass`] returning
+//! `None`, as the server's outbox does): other jobs go on meanwhile, the
+//! image and the passes are those of a film ended at once, and a job
+//! cancelled in between stays cancelled.
 
 use super::tests::{geometry, reference_image, render, spec, Recorder};
 use super::*;
@@ -15,6 +16,7 @@ use std::time::Instant;
 struct Later {
     rec: Recorder,
     films: Vec<(JobId, Film, u32)>,
+    passes: Vec<(JobId, Film, u32)>,
     ended: Vec<JobId>,
 }
 
@@ -38,6 +40,10 @@ impl Outbox for Later {
     }
     fn end_film(&mut self, job: JobId, film: Film, spp: u32) -> Option<EndedFilm> {
         self.films.push((job, film, spp));
+        None
+    }
+    fn estimate_pass(&mut self, job: JobId, film: Film, spp: u32) -> Option<(Film, Option<f64>)> {
+        self.passes.push((job, film, spp));
         None
     }
 }
@@ -111,4 +117,65 @@ fn a_job_cancelled_while_its_film_is_ended_stays_cancelled() {
     assert_eq!(state(&s, job), "cancelled");
     assert!(out.rec.image(job).is_none(), "no image after the cancellation");
     assert_eq!(out.ended, [job], "the cancellation is its only end");
+}
+
+#[test]
+fn a_pass_estimated_later_starts_the_next_pass_as_one_estimated_at_once() {
+    use super::pass_tests::{finished, in_passes, render, run, three};
+    let plan = three(None, None);
+    let mut s = Scheduler::new(SchedulerConfig::default());
+    let mut now = Recorder::default();
+    s.worker_joined(WorkerId(1), "a".into(), 1, 4, Instant::now(), &mut now);
+    let job = s.submit(in_passes(&plan), &mut now);
+    run(&mut s, &mut now);
+    let reference = finished(&now, job);
+
+    let mut s = Scheduler::new(SchedulerConfig::default());
+    let mut out = Later::default();
+    s.worker_joined(WorkerId(1), "a".into(), 1, 4, Instant::now(), &mut out);
+    let job = s.submit(in_passes(&plan), &mut out);
+    let g = geometry();
+    let mut estimated = 0;
+    loop {
+        let mut queue = out.rec.take();
+        while let Some((w, a)) = queue.pop() {
+            s.tile_done(w, a.key(), render(&g, a.tile), RayStats::default(), &mut out);
+            queue.extend(out.rec.take());
+        }
+        let Some((j, mut film, spp)) = out.passes.pop() else { break };
+        // While the estimate is worked out, the job has nothing out and
+        // hands out nothing.
+        assert_eq!(state(&s, job), "running");
+        s.fill(&mut out);
+        assert!(out.rec.assigned.is_empty());
+        let estimate = film.pass_estimate(spp);
+        s.pass_estimated(j, film, estimate, &mut out);
+        estimated += 1;
+    }
+    assert_eq!(estimated, 3, "one estimate a pass");
+    let (j, film, spp) = out.films.pop().expect("the last pass ends the job");
+    s.film_ended(j, EndedFilm::of(film, spp), &mut out);
+    let f = finished(&out.rec, job);
+    let noted =
+        |f: &FinishedJob| -> Vec<_> { f.passes.iter().map(|p| (p.spp, p.estimate)).collect() };
+    assert_eq!(noted(&f), noted(&reference), "the same passes, the same estimates");
+    assert_eq!(f.image, reference.image);
+    assert!(f.passes.iter().all(|p| p.estimate.is_some()), "{:?}", f.passes);
+}
+
+#[test]
+fn a_job_cancelled_while_its_pass_is_estimated_starts_no_other_pass() {
+    use super::pass_tests::{in_passes, three};
+    let mut s = Scheduler::new(SchedulerConfig::default());
+    let mut out = Later::default();
+    s.worker_joined(WorkerId(1), "a".into(), 1, 4, Instant::now(), &mut out);
+    let job = s.submit(in_passes(&three(None, None)), &mut out);
+    render_all(&mut s, &mut out, job);
+    let (_, mut film, spp) = out.passes.pop().expect("the first pass is complete");
+    assert!(s.cancel(job, &mut out));
+    let estimate = film.pass_estimate(spp);
+    s.pass_estimated(job, film, estimate, &mut out);
+    assert_eq!(state(&s, job), "cancelled");
+    assert!(out.rec.take().is_empty(), "no tile of a next pass is handed out");
+    assert!(s.pass_ends(job).is_empty());
 }

@@ -143,6 +143,9 @@ pub(super) struct Job {
     /// A complete film being ended ([`super::Outbox::end_film`]): the
     /// samples per pixel and render seconds its image will carry.
     pub(super) ending: Option<(u32, f64)>,
+    /// A pass's film being estimated ([`super::Outbox::estimate_pass`]):
+    /// the seconds from the job's start to the pass's end.
+    pub(super) estimating: Option<f64>,
     /// When it ended (seconds since the epoch), for its retention.
     pub(super) ended_at: Option<i64>,
     /// A finished job's estimate of its own relMSE.
@@ -185,6 +188,7 @@ impl Job {
             last_progress: now,
             finished: None,
             ending: None,
+            estimating: None,
             ended_at: None,
             rel_mse: None,
             pass: 0,

@@ -99,8 +99,8 @@ impl Scheduler {
         match self.jobs.get(&key.job) {
             // A job ended while the answer was on its way; a worker declared
             // lost may still have had a few messages in flight.
-            Some(j) if !j.state.is_active() || j.ending.is_some() => {
-                debug!(job, tile, "{what} for a finished job ignored")
+            Some(j) if !j.state.is_active() || j.ending.is_some() || j.estimating.is_some() => {
+                debug!(job, tile, "{what} for a finished job or pass ignored")
             }
             _ if !self.workers.contains_key(&worker) => {
                 debug!(worker = worker.0, job, tile, "{what} from a lost worker ignored")
@@ -393,6 +393,7 @@ impl Scheduler {
         out.record(Record::Ended { job, state: &j.state, image: None });
         j.film = None;
         j.ending = None;
+        j.estimating = None;
         j.pending.clear();
         j.out_order.clear();
         let spares = j.spares.drain().map(|(_, (w, _))| w);

@@ -174,4 +174,17 @@ pub trait Outbox {
     fn end_film(&mut self, _job: JobId, film: Film, spp: u32) -> Option<EndedFilm> {
         Some(EndedFilm::of(film, spp))
     }
+    /// Works out the estimate of `job`'s film after a pass of `spp` samples
+    /// per pixel ([`Film::pass_estimate`]), here at once, returning the
+    /// film with it; an outbox that returns `None` hands them to
+    /// [`super::Scheduler::pass_estimated`] later.
+    fn estimate_pass(
+        &mut self,
+        _job: JobId,
+        mut film: Film,
+        spp: u32,
+    ) -> Option<(Film, Option<f64>)> {
+        let estimate = film.pass_estimate(spp);
+        Some((film, estimate))
+    }
 }

@@ -14,7 +14,7 @@ use std::time::Instant;
 
 /// What any worker renders for a tile: two samples a pixel, one in each
 /// half, so every pass has an estimate (the same whatever the pass asked).
-fn render(g: &FilmGeometry, tile: TileId) -> FilmTile {
+pub(super) fn render(g: &FilmGeometry, tile: TileId) -> FilmTile {
     let mut t = FilmTile::new(g.tile_pixel_bounds(tile));
     for p in t.pixel_bounds.iter() {
         let v = ((p.x * 31 + p.y * 17 + tile.0 as i32 * 7) % 97) as f32 / 97.0 + 0.013;
@@ -25,17 +25,17 @@ fn render(g: &FilmGeometry, tile: TileId) -> FilmTile {
 }
 
 /// Passes of 4, 8 and 16 samples.
-fn three(target_error: Option<f64>, time_limit: Option<f64>) -> PassPlan {
+pub(super) fn three(target_error: Option<f64>, time_limit: Option<f64>) -> PassPlan {
     PassPlan { totals: vec![4, 8, 16], ..PassPlan::new(16, target_error, time_limit) }
 }
 
-fn in_passes(plan: &PassPlan) -> JobSpec {
+pub(super) fn in_passes(plan: &PassPlan) -> JobSpec {
     JobSpec { spp: *plan.totals.last().unwrap(), passes: Some(plan.clone()), ..spec(0) }
 }
 
 /// Renders every hand-out, the latest first, until none is left; returns
 /// the samples each asked for, in the order they were handed out.
-fn run(s: &mut Scheduler, out: &mut Recorder) -> Vec<Option<SampleRange>> {
+pub(super) fn run(s: &mut Scheduler, out: &mut Recorder) -> Vec<Option<SampleRange>> {
     let g = geometry();
     let mut asked = Vec::new();
     let mut queue = out.take();
@@ -47,7 +47,7 @@ fn run(s: &mut Scheduler, out: &mut Recorder) -> Vec<Option<SampleRange>> {
     asked
 }
 
-fn finished(out: &Recorder, job: JobId) -> std::sync::Arc<FinishedJob> {
+pub(super) fn finished(out: &Recorder, job: JobId) -> std::sync::Arc<FinishedJob> {
     out.updates
         .iter()
         .find_map(|(j, u)| match u {
@@ -57,7 +57,7 @@ fn finished(out: &Recorder, job: JobId) -> std::sync::Arc<FinishedJob> {
         .expect("the job finished")
 }
 
-fn bits(i: &RgbImage) -> Vec<u32> {
+pub(super) fn bits(i: &RgbImage) -> Vec<u32> {
     i.pixels.iter().flat_map(|p| p.map(f32::to_bits)).collect()
 }
 

@@ -2,7 +2,7 @@
 //! happens here, one event at a time.
 
 use super::live::{live_answer, send_live, Pace};
-use super::outbox::{send_stored, GrpcOutbox};
+use super::outbox::{send_stored, GrpcOutbox, OffLoop};
 use super::ServerConfig;
 use crate::live::LiveCursor;
 use crate::merge::Film;
@@ -152,11 +152,11 @@ pub struct LoopState {
 /// Runs the scheduler until the channel closes or `Shutdown` arrives.
 pub async fn run(mut rx: mpsc::UnboundedReceiver<Event>, config: ServerConfig, state: LoopState) {
     let mut sched = Scheduler::new(config.scheduler.clone());
-    let (ended_tx, mut ended_rx) = mpsc::unbounded_channel();
+    let (off_loop_tx, mut off_loop) = mpsc::unbounded_channel();
     let mut out = GrpcOutbox {
         journal: state.journal,
         metrics: state.metrics,
-        ended: Some(ended_tx),
+        off_loop: Some(off_loop_tx),
         ..Default::default()
     };
     let mut rays_at: (Instant, u64) = (Instant::now(), 0);
@@ -169,10 +169,10 @@ pub async fn run(mut rx: mpsc::UnboundedReceiver<Event>, config: ServerConfig, s
     let mut last_purge: Option<Instant> = None;
     let mut unwatched: HashMap<JobId, Instant> = HashMap::new();
     loop {
-        // A film ended off the loop goes first: its watchers wait for it.
+        // A film back from off the loop goes first: its job waits for it.
         let ev = tokio::select! {
             biased;
-            Some((job, ended)) = ended_rx.recv() => Err((job, ended)),
+            Some(done) = off_loop.recv() => Err(done),
             ev = rx.recv() => match ev {
                 Some(ev) => Ok(ev),
                 None => break,
@@ -180,8 +180,12 @@ pub async fn run(mut rx: mpsc::UnboundedReceiver<Event>, config: ServerConfig, s
         };
         let ev = match ev {
             Ok(ev) => ev,
-            Err((job, ended)) => {
+            Err(OffLoop::Ended(job, ended)) => {
                 sched.film_ended(job, ended, &mut out);
+                continue;
+            }
+            Err(OffLoop::Estimated(job, film, estimate)) => {
+                sched.pass_estimated(job, *film, estimate, &mut out);
                 continue;
             }
         };

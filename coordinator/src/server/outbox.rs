@@ -46,13 +46,21 @@ pub(super) struct GrpcOutbox {
     pub(super) handed: HashMap<TileAttempt, Instant>,
     /// Finished images kept a while for the dashboard pages open on them.
     pub(super) recent: RecentImages,
-    /// Where films ended off the event loop go back to it; without it a
-    /// film is ended on the loop.
-    pub(super) ended: Option<EndedTx>,
+    /// Where films ended or estimated off the event loop go back to it;
+    /// without it that is done on the loop.
+    pub(super) off_loop: Option<OffLoopTx>,
 }
 
-/// Films ended off the event loop, on their way back to it.
-pub(super) type EndedTx = mpsc::UnboundedSender<(JobId, EndedFilm)>;
+/// A film's per-pixel work, done off the event loop.
+pub(super) enum OffLoop {
+    /// A job's film ended ([`Outbox::end_film`]).
+    Ended(JobId, EndedFilm),
+    /// A pass's film and its estimate ([`Outbox::estimate_pass`]).
+    Estimated(JobId, Box<Film>, Option<f64>),
+}
+
+/// Films done with off the event loop, on their way back to it.
+pub(super) type OffLoopTx = mpsc::UnboundedSender<OffLoop>;
 
 fn rpc_stats(s: &RayStats) -> Option<v1::RayStats> {
     Some(v1::RayStats::from(s))
@@ -120,11 +128,30 @@ impl Outbox for GrpcOutbox {
     /// thread: for a 2048² film that is about 0.16 s in which the loop goes
     /// on handing out and merging other jobs' tiles.
     fn end_film(&mut self, job: JobId, film: Film, spp: u32) -> Option<EndedFilm> {
-        let Some(tx) = self.ended.clone() else { return Some(EndedFilm::of(film, spp)) };
+        let Some(tx) = self.off_loop.clone() else { return Some(EndedFilm::of(film, spp)) };
         tokio::task::spawn_blocking(move || {
             // The loop may have stopped meanwhile; a journalled job then
             // resumes and ends again when the coordinator starts.
-            let _ = tx.send((job, EndedFilm::of(film, spp)));
+            let _ = tx.send(OffLoop::Ended(job, EndedFilm::of(film, spp)));
+        });
+        None
+    }
+
+    /// The same for a pass's estimate, which reads every pixel as the
+    /// job's end does.
+    fn estimate_pass(
+        &mut self,
+        job: JobId,
+        mut film: Film,
+        spp: u32,
+    ) -> Option<(Film, Option<f64>)> {
+        let Some(tx) = self.off_loop.clone() else {
+            let estimate = film.pass_estimate(spp);
+            return Some((film, estimate));
+        };
+        tokio::task::spawn_blocking(move || {
+            let estimate = film.pass_estimate(spp);
+            let _ = tx.send(OffLoop::Estimated(job, Box::new(film), estimate));
         });
         None
     }
