@@ -87,6 +87,8 @@ fn a_film_ended_later_lets_other_jobs_go_on_and_gives_the_same_image() {
     out.rec.assigned.extend(held);
     assert_eq!(state(&s, first), "running");
     assert!(out.rec.image(first).is_none() && out.ended.is_empty());
+    assert_eq!(s.film_lent(first), Some(&geometry()), "its pages wait for it");
+    assert!(s.film_lent(second).is_none(), "a job with its film has none lent");
     // Meanwhile the second job's tiles are handed out and merged.
     render_all(&mut s, &mut out, second);
     assert_eq!(out.films.len(), 2, "the second film is complete too");
@@ -99,6 +101,7 @@ fn a_film_ended_later_lets_other_jobs_go_on_and_gives_the_same_image() {
     for (job, film, spp) in std::mem::take(&mut out.films).into_iter().rev() {
         s.film_ended(job, EndedFilm::of(film, spp), &mut out);
         assert_eq!(state(&s, job), "done");
+        assert!(s.film_lent(job).is_none());
         assert_eq!(out.rec.image(job).expect("finished"), reference);
     }
     assert_eq!(out.ended, [second, first], "each end is journalled once");
@@ -146,6 +149,7 @@ fn a_pass_estimated_later_starts_the_next_pass_as_one_estimated_at_once() {
         // While the estimate is worked out, the job has nothing out and
         // hands out nothing.
         assert_eq!(state(&s, job), "running");
+        assert!(s.film_lent(job).is_some());
         s.fill(&mut out);
         assert!(out.rec.assigned.is_empty());
         let estimate = film.pass_estimate(spp);
@@ -176,6 +180,7 @@ fn a_job_cancelled_while_its_pass_is_estimated_starts_no_other_pass() {
     let estimate = film.pass_estimate(spp);
     s.pass_estimated(job, film, estimate, &mut out);
     assert_eq!(state(&s, job), "cancelled");
+    assert!(s.film_lent(job).is_none(), "a cancelled job's pages are told it ended");
     assert!(out.rec.take().is_empty(), "no tile of a next pass is handed out");
     assert!(s.pass_ends(job).is_empty());
 }

@@ -112,6 +112,15 @@ impl Scheduler {
         self.virtual_now.unwrap_or_else(std::time::Instant::now)
     }
 
+    /// The film layout of an active job whose film is lent out, being
+    /// estimated or ended off the event loop ([`Outbox::estimate_pass`],
+    /// [`Outbox::end_film`]): it has no film for now, but is not over.
+    pub fn film_lent(&self, job: JobId) -> Option<&farm_common::film::FilmGeometry> {
+        let j = self.jobs.get(&job)?;
+        let lent = j.state.is_active() && (j.ending.is_some() || j.estimating.is_some());
+        lent.then_some(&j.spec.geometry)
+    }
+
     /// The film of an active job, as it stands (for live previews).
     pub fn film(&self, job: JobId) -> Option<&crate::merge::Film> {
         self.jobs.get(&job)?.film.as_ref()

@@ -113,6 +113,10 @@ pub(super) fn live_answer(
             crate::web::live::ANSWER_PIXELS,
         ));
     }
+    if let Some(g) = sched.film_lent(job) {
+        // Nothing new until the film is back: look again.
+        return LiveAnswer::Running(crate::web::live::unchanged(g, from, merged));
+    }
     match sched.snapshot(job) {
         None => LiveAnswer::NoJob,
         Some(Snapshot::Stored) => match recent.get(job) {
@@ -146,7 +150,8 @@ pub(super) enum Pace {
 pub(super) fn send_live(sched: &Scheduler, out: &mut GrpcOutbox, now: Instant, pace: Pace) {
     let progressed = std::mem::take(&mut out.progressed);
     out.live.retain(|job, list| {
-        let Some(film) = sched.film(*job) else { return false };
+        // A film lent out comes back: its watchers wait for it.
+        let Some(film) = sched.film(*job) else { return sched.film_lent(*job).is_some() };
         if pace == Pace::WithProgress && !progressed.contains(job) {
             return true;
         }
@@ -213,6 +218,67 @@ mod tests {
             passes: Vec::new(),
             stopped: None,
         })
+    }
+
+    /// While a job's film is ended off the loop, its live watchers and
+    /// pages wait for it; once it is done they are let go.
+    #[tokio::test]
+    async fn watchers_wait_for_a_film_lent_off_the_loop() {
+        use crate::live::LiveCursor;
+        use crate::scheduler::{JobSpec, Owner, SchedulerConfig};
+        use crate::server::outbox::OffLoop;
+        use farm_common::film::FilmTile;
+        use farm_common::geometry::{Bounds2i, Point2i, Vec2};
+        use farm_common::ids::{TileAttempt, WorkerId};
+        let b = Bounds2i::new(Point2i::new(0, 0), Point2i::new(40, 20));
+        let g = FilmGeometry::new(b.max, b, Vec2::splat(0.5), 1.0, f32::INFINITY, "x".into(), 35.0);
+        let spec = JobSpec {
+            name: "t".into(),
+            priority: 0,
+            scene_hash: vec![1; 32],
+            spp_override: 0,
+            spp: 2,
+            geometry: g.clone(),
+            owner: Owner::default(),
+            detach: false,
+            blobs: Vec::new(),
+            shot: None,
+            passes: None,
+            parallel_tiles: false,
+        };
+        let (off_tx, mut off_rx) = mpsc::unbounded_channel();
+        let mut out = GrpcOutbox { off_loop: Some(off_tx), ..Default::default() };
+        let (worker_tx, mut to_worker) = mpsc::unbounded_channel();
+        out.workers.insert(WorkerId(1), worker_tx);
+        let mut sched = Scheduler::new(SchedulerConfig::default());
+        let now = Instant::now();
+        sched.worker_joined(WorkerId(1), "w".into(), 1, 64, now, &mut out);
+        let job = sched.submit(spec, &mut out);
+        let (live_tx, _live_rx) = mpsc::channel(4);
+        out.live.entry(job).or_default().push((live_tx, LiveCursor::new(), now));
+        while let Ok(Ok(msg)) = to_worker.try_recv() {
+            let Some(v1::coordinator_message::Kind::Assign(a)) = msg.kind else { continue };
+            let tile = farm_common::ids::TileId(a.tile);
+            let mut t = FilmTile::new(g.tile_pixel_bounds(tile));
+            for p in t.pixel_bounds.iter() {
+                t.add(p, farm_common::Spectrum::new(1.0, 0.5, 0.25), 1.0, false);
+                t.add(p, farm_common::Spectrum::new(1.0, 0.5, 0.25), 1.0, true);
+            }
+            let key = TileAttempt { job, tile, attempt: a.attempt };
+            sched.tile_done(WorkerId(1), key, t, Default::default(), &mut out);
+        }
+        assert!(sched.film_lent(job).is_some(), "every tile is in: the film is being ended");
+        send_live(&sched, &mut out, now, Pace::Tick);
+        assert!(out.live.contains_key(&job), "its live watchers wait");
+        let mut recent = RecentImages::default();
+        let answer = live_answer(&mut sched, &mut recent, job, (0, 0), now);
+        assert!(matches!(answer, LiveAnswer::Running(_)), "a page is told to look again");
+        let Some(OffLoop::Ended(j, ended)) = off_rx.recv().await else { panic!("no film back") };
+        sched.film_ended(j, ended, &mut out);
+        send_live(&sched, &mut out, now, Pace::Tick);
+        assert!(!out.live.contains_key(&job), "the job is done: no more previews");
+        let answer = live_answer(&mut sched, &mut recent, job, (0, 0), now);
+        assert!(matches!(answer, LiveAnswer::Done(..)));
     }
 
     #[test]
