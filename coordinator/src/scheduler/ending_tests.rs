@@ -184,3 +184,29 @@ fn a_job_cancelled_while_its_pass_is_estimated_starts_no_other_pass() {
     assert!(out.rec.take().is_empty(), "no tile of a next pass is handed out");
     assert!(s.pass_ends(job).is_empty());
 }
+
+/// A job whose film is lent out hands out nothing and takes no result,
+/// even with a tile left queued or held (as a tile put back after its
+/// holder failed, whose parts came back first, could be).
+#[test]
+fn a_lent_film_hands_out_nothing_and_takes_no_result() {
+    let mut s = Scheduler::new(SchedulerConfig::default());
+    let mut out = Later::default();
+    s.worker_joined(WorkerId(1), "a".into(), 1, 4, Instant::now(), &mut out);
+    let job = s.submit(spec(0), &mut out);
+    render_all(&mut s, &mut out, job);
+    assert!(s.film_lent(job).is_some());
+    let j = s.jobs.get_mut(&job).unwrap();
+    assert!(j.pending.is_empty() && j.out_order.is_empty());
+    j.pending.push_back(0);
+    j.in_flight.insert(1, (WorkerId(2), 7));
+    s.worker_joined(WorkerId(2), "b".into(), 1, 4, Instant::now(), &mut out);
+    assert!(out.rec.take().is_empty(), "no tile of a lent film is handed out");
+    let key = TileAttempt { job, tile: TileId(1), attempt: 7 };
+    s.tile_done(WorkerId(2), key, render(&geometry(), TileId(1)), RayStats::default(), &mut out);
+    s.tile_failed(WorkerId(2), key, "no".into(), false, &mut out);
+    assert_eq!(state(&s, job), "running", "neither a result nor a failure touches it");
+    let (_, film, spp) = out.films.pop().unwrap();
+    s.film_ended(job, EndedFilm::of(film, spp), &mut out);
+    assert_eq!(out.rec.image(job).expect("finished"), reference_image());
+}

@@ -19,7 +19,7 @@ impl Scheduler {
         let mut order: Vec<JobId> = self
             .jobs
             .values()
-            .filter(|j| j.state.is_active() && !j.pending.is_empty())
+            .filter(|j| j.state.is_active() && j.film.is_some() && !j.pending.is_empty())
             .map(|j| j.id)
             .collect();
         order.sort_by_key(|id| (-self.jobs[id].spec.priority, *id));
@@ -90,7 +90,10 @@ impl Scheduler {
             .jobs
             .values()
             .filter(|j| {
-                j.state.is_active() && j.pending.is_empty() && j.in_flight.len() > j.spares.len()
+                j.state.is_active()
+                    && j.film.is_some()
+                    && j.pending.is_empty()
+                    && j.in_flight.len() > j.spares.len()
             })
             .map(|j| j.id)
             .collect();

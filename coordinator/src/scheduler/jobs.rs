@@ -76,7 +76,9 @@ impl Scheduler {
     fn holds(&self, worker: WorkerId, key: TileAttempt) -> bool {
         self.jobs.get(&key.job).is_some_and(|j| {
             let h = Some(&(worker, key.attempt));
+            // A job whose film is lent out holds nothing.
             j.state.is_active()
+                && j.film.is_some()
                 && (j.in_flight.get(&key.tile.0) == h
                     || j.spares.get(&key.tile.0) == h
                     || j.holds_part(key.tile.0, worker, Some(key.attempt)))
@@ -420,6 +422,11 @@ impl Scheduler {
         let render_seconds = j.started.map(|s| now.duration_since(s).as_secs_f64()).unwrap_or(0.0);
         let spp = j.pass_ends.last().map_or(j.spec.spp, |p| p.spp);
         j.ending = Some((spp, render_seconds));
+        // Every tile is in: none is left to hand out while the film is lent
+        // (a tile put back after its holder failed, whose parts came back
+        // first, may still be queued).
+        j.pending.clear();
+        j.out_order.clear();
         if let Some(ended) = out.end_film(job, film, spp) {
             self.film_ended(job, ended, out);
         }

@@ -25,6 +25,9 @@ impl Scheduler {
         let spp = plan.totals[j.pass as usize];
         let seconds = j.started.map_or(0.0, |s| now.duration_since(s).as_secs_f64());
         j.estimating = Some(seconds);
+        // Every tile of the pass is in (see `finish`).
+        j.pending.clear();
+        j.out_order.clear();
         if let Some((film, estimate)) = out.estimate_pass(job, film, spp) {
             self.next_pass(job, film, estimate, out);
         }

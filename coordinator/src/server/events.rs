@@ -188,6 +188,11 @@ pub async fn run(mut rx: mpsc::UnboundedReceiver<Event>, config: ServerConfig, s
                 sched.pass_estimated(job, *film, estimate, &mut out);
                 continue;
             }
+            Err(OffLoop::Panicked(job, why)) => {
+                let reason = format!("internal error while ending the job's film: {why}");
+                sched.abandon(job, reason, &mut out);
+                continue;
+            }
         };
         let now = Instant::now();
         match ev {
@@ -226,7 +231,11 @@ pub async fn run(mut rx: mpsc::UnboundedReceiver<Event>, config: ServerConfig, s
             Event::Submit { spec, film, reply } => {
                 let id = match sched.check_shot(&spec) {
                     Ok(()) => Ok(sched.submit_with_film(*spec, *film, &mut out)),
-                    Err(why) => Err(crate::error::Error::BadShot(why)),
+                    Err(why) => {
+                        // Its pages are unmapped off the loop, as they were mapped.
+                        tokio::task::spawn_blocking(move || drop(film));
+                        Err(crate::error::Error::BadShot(why))
+                    }
                 };
                 let _ = reply.send(id);
             }

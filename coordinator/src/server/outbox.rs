@@ -57,6 +57,27 @@ pub(super) enum OffLoop {
     Ended(JobId, EndedFilm),
     /// A pass's film and its estimate ([`Outbox::estimate_pass`]).
     Estimated(JobId, Box<Film>, Option<f64>),
+    /// The work panicked (a bug): the job fails with this message rather
+    /// than wait for ever.
+    Panicked(JobId, String),
+}
+
+/// Runs `work` for `job` on a blocking thread and sends what it gives back
+/// to the loop, or [`OffLoop::Panicked`] if it panics. The loop may have
+/// stopped meanwhile; a journalled job then resumes when the coordinator
+/// starts, and ends again.
+fn off_loop(tx: OffLoopTx, job: JobId, work: impl FnOnce() -> OffLoop + Send + 'static) {
+    tokio::task::spawn_blocking(move || {
+        let done = std::panic::catch_unwind(std::panic::AssertUnwindSafe(work));
+        let _ = tx.send(done.unwrap_or_else(|p| {
+            let why = p
+                .downcast_ref::<&str>()
+                .map(|s| s.to_string())
+                .or_else(|| p.downcast_ref::<String>().cloned())
+                .unwrap_or_default();
+            OffLoop::Panicked(job, why)
+        }));
+    });
 }
 
 /// Films done with off the event loop, on their way back to it.
@@ -129,11 +150,7 @@ impl Outbox for GrpcOutbox {
     /// on handing out and merging other jobs' tiles.
     fn end_film(&mut self, job: JobId, film: Film, spp: u32) -> Option<EndedFilm> {
         let Some(tx) = self.off_loop.clone() else { return Some(EndedFilm::of(film, spp)) };
-        tokio::task::spawn_blocking(move || {
-            // The loop may have stopped meanwhile; a journalled job then
-            // resumes and ends again when the coordinator starts.
-            let _ = tx.send(OffLoop::Ended(job, EndedFilm::of(film, spp)));
-        });
+        off_loop(tx, job, move || OffLoop::Ended(job, EndedFilm::of(film, spp)));
         None
     }
 
@@ -149,9 +166,9 @@ impl Outbox for GrpcOutbox {
             let estimate = film.pass_estimate(spp);
             return Some((film, estimate));
         };
-        tokio::task::spawn_blocking(move || {
+        off_loop(tx, job, move || {
             let estimate = film.pass_estimate(spp);
-            let _ = tx.send(OffLoop::Estimated(job, Box::new(film), estimate));
+            OffLoop::Estimated(job, Box::new(film), estimate)
         });
         None
     }
@@ -272,6 +289,24 @@ mod tests {
     use super::*;
     use crate::scheduler::FinishedJob;
     use farm_common::image::RgbImage;
+
+    /// Work off the loop that panics comes back as a failure of its job,
+    /// with the panic's message; work that does not, as what it gave.
+    #[tokio::test]
+    async fn a_panic_off_the_loop_comes_back_as_its_jobs_failure() {
+        let (tx, mut rx) = mpsc::unbounded_channel();
+        off_loop(tx.clone(), JobId(3), || panic!("boom {}", 7));
+        off_loop(tx, JobId(4), || OffLoop::Panicked(JobId(4), "fine".into()));
+        let mut got = Vec::new();
+        for _ in 0..2 {
+            match rx.recv().await {
+                Some(OffLoop::Panicked(j, why)) => got.push((j, why)),
+                _ => panic!("not what was sent"),
+            }
+        }
+        got.sort_by_key(|(j, _)| j.0);
+        assert_eq!(got, [(JobId(3), "boom 7".to_string()), (JobId(4), "fine".to_string())]);
+    }
 
     /// Every watcher still listening is sent every event, the last one
     /// the events themselves and the others copies; a closed one is
