@@ -109,6 +109,13 @@ impl Scheduler {
         // look. With 10,000 idle workers, each looking at thousands of
         // hand-outs, this took up to a sixth of a coordinator's CPU.
         let mut slowest_holder: Vec<Option<f64>> = vec![None; order.len()];
+        // Per job in `order`: the lowest pace of a worker that looked at
+        // every hand-out of a split job and turned each down for pace
+        // alone. A worker as slow or slower turns each down too, so it
+        // does not look: with 10,000 idle workers of scattered paces,
+        // each looking at thousands of hand-outs on every result, this
+        // was a fifth of a coordinator's CPU.
+        let mut too_slow_from: Vec<Option<f64>> = vec![None; order.len()];
         // The idle workers in id order. Most calls end at the first one
         // (nothing is left to speculate), and copying 10,000 idle workers'
         // ids on every result was the largest single cost of a tile at that
@@ -136,6 +143,11 @@ impl Scheduler {
                             continue;
                         }
                     }
+                    if let (Some(m), Some(w)) = (too_slow_from[o], own_pace) {
+                        if w >= m {
+                            continue;
+                        }
+                    }
                     // The oldest hand-out nobody renders again, that this
                     // worker neither holds nor has failed. A split tile:
                     // the newest hand-out first (the likeliest to end
@@ -144,6 +156,9 @@ impl Scheduler {
                     let split = j.spec.parallel_tiles;
                     // The slowest holder seen, while every one has a pace.
                     let mut slowest = Some(0.0f64);
+                    // Whether a hand-out was turned down for this worker's
+                    // own sake (it holds it, failed it, or holds a part).
+                    let mut its_own = false;
                     let mut i = 0;
                     loop {
                         let at = if split { j.out_order.len().checked_sub(i + 1) } else { Some(i) };
@@ -171,7 +186,9 @@ impl Scheduler {
                             (Some(h), Some(w)) if split => w / f64::from(TILE_PARTS) <= h,
                             _ => true,
                         };
-                        if holder != wid && !failed_here && !j.holds_part(t, wid, None) && sooner {
+                        let mine = holder == wid || failed_here || j.holds_part(t, wid, None);
+                        its_own |= mine;
+                        if !mine && sooner {
                             // A split tile stays in line until its last
                             // part is out.
                             let last = !split
@@ -186,6 +203,9 @@ impl Scheduler {
                     }
                     if pick.is_none() && split {
                         slowest_holder[o] = slowest;
+                        if let Some(w) = own_pace.filter(|_| !its_own) {
+                            too_slow_from[o] = Some(too_slow_from[o].map_or(w, |m| m.min(w)));
+                        }
                     }
                     if pick.is_some() {
                         break;
