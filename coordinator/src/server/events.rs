@@ -21,6 +21,7 @@ pub use super::from_worker::FromWorker;
 pub use super::live::LiveAnswer;
 pub(crate) use super::outbox::job_events;
 pub use super::outbox::{LiveTx, WatchTx, WorkerTx};
+pub use super::queues::{channel, EventRx, EventTx};
 
 /// Everything the event loop reacts to.
 pub enum Event {
@@ -150,7 +151,7 @@ pub struct LoopState {
 }
 
 /// Runs the scheduler until the channel closes or `Shutdown` arrives.
-pub async fn run(mut rx: mpsc::UnboundedReceiver<Event>, config: ServerConfig, state: LoopState) {
+pub async fn run(mut rx: EventRx, config: ServerConfig, state: LoopState) {
     let mut sched = Scheduler::new(config.scheduler.clone());
     let (off_loop_tx, mut off_loop) = mpsc::unbounded_channel();
     let mut out = GrpcOutbox {

@@ -6,6 +6,7 @@ pub(crate) mod events;
 mod from_worker;
 mod live;
 mod outbox;
+mod queues;
 mod service;
 mod submission;
 
@@ -21,7 +22,7 @@ use farm_proto::MAX_MESSAGE_SIZE;
 use std::future::Future;
 use std::time::Duration;
 use tokio::net::TcpListener;
-use tokio::sync::mpsc;
+
 use tonic::service::interceptor::InterceptedService;
 use tonic::transport::server::TcpIncoming;
 use tonic::transport::{Identity, ServerTlsConfig};
@@ -107,7 +108,7 @@ pub async fn serve(
     };
     // The lock on the state directory is held until the server stops.
     let _lock = state.lock;
-    let (events, rx) = mpsc::unbounded_channel();
+    let (events, rx) = events::channel();
     let mut loop_task = tokio::spawn(events::run(rx, config.clone(), loop_state));
     let ticker = {
         let events = events.clone();

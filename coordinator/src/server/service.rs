@@ -1,7 +1,7 @@
 //! The `renderfarm.v1.Coordinator` service: checks what arrives from the
 //! network and turns it into scheduler events.
 
-use super::events::{Event, FromWorker};
+use super::events::{Event, EventTx, FromWorker};
 use crate::error::Error;
 use crate::merge::Film;
 use crate::scheduler::Owner;
@@ -33,7 +33,7 @@ type BoxStream<T> = Pin<Box<dyn Stream<Item = Result<T, Status>> + Send>>;
 /// The service; cheap to clone.
 #[derive(Clone)]
 pub struct CoordinatorService {
-    events: mpsc::UnboundedSender<Event>,
+    events: EventTx,
     blobs: BlobStore,
     registered: Arc<Mutex<Registry>>,
     next_worker: Arc<AtomicU64>,
@@ -90,12 +90,7 @@ impl Drop for Watched {
 impl CoordinatorService {
     /// A service feeding `events`, refusing jobs over `limits`, keeping
     /// blobs in `blobs`.
-    pub fn new(
-        events: mpsc::UnboundedSender<Event>,
-        heartbeat: Duration,
-        limits: Limits,
-        blobs: BlobStore,
-    ) -> Self {
+    pub fn new(events: EventTx, heartbeat: Duration, limits: Limits, blobs: BlobStore) -> Self {
         CoordinatorService {
             events,
             blobs,

@@ -39,7 +39,7 @@ use axum::{Form, Json, Router};
 use farm_common::ids::JobId;
 use farm_proto::auth::{Role, Token};
 use std::sync::Arc;
-use tokio::sync::{mpsc, oneshot};
+use tokio::sync::oneshot;
 
 /// The cookie the sign-in form sets.
 pub const COOKIE: &str = "farm_token";
@@ -50,7 +50,7 @@ pub const CSRF_HEADER: &str = "x-farm-csrf";
 #[derive(Clone)]
 pub struct Web {
     /// The event loop.
-    pub events: mpsc::UnboundedSender<Event>,
+    pub events: crate::server::events::EventTx,
     /// How callers are checked.
     pub security: Security,
     /// The metrics.

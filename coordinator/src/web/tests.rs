@@ -39,7 +39,7 @@ fn setup(tag: &str) -> (Router, [String; 3], std::path::PathBuf) {
     let token = |r: &str| std::fs::read_to_string(dir.join(format!("{r}.token"))).unwrap();
     let tokens = [token("admin"), token("client"), token("worker")].map(|t| t.trim().to_string());
     let client_id = tokens[1].parse::<Token>().unwrap().id;
-    let (events, mut rx) = mpsc::unbounded_channel();
+    let (events, mut rx) = crate::server::events::channel();
     tokio::spawn(async move {
         while let Some(ev) = rx.recv().await {
             match ev {
