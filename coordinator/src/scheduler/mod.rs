@@ -121,6 +121,13 @@ impl Scheduler {
         lent.then_some(&j.spec.geometry)
     }
 
+    /// Whether any active job's film is lent out (see [`Scheduler::film_lent`]).
+    pub fn films_lent(&self) -> bool {
+        self.jobs
+            .values()
+            .any(|j| j.state.is_active() && (j.ending.is_some() || j.estimating.is_some()))
+    }
+
     /// The film of an active job, as it stands (for live previews).
     pub fn film(&self, job: JobId) -> Option<&crate::merge::Film> {
         self.jobs.get(&job)?.film.as_ref()

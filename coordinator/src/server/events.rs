@@ -181,17 +181,8 @@ pub async fn run(mut rx: EventRx, config: ServerConfig, state: LoopState) {
         };
         let ev = match ev {
             Ok(ev) => ev,
-            Err(OffLoop::Ended(job, ended)) => {
-                sched.film_ended(job, ended, &mut out);
-                continue;
-            }
-            Err(OffLoop::Estimated(job, film, estimate)) => {
-                sched.pass_estimated(job, *film, estimate, &mut out);
-                continue;
-            }
-            Err(OffLoop::Panicked(job, why)) => {
-                let reason = format!("internal error while ending the job's film: {why}");
-                sched.abandon(job, reason, &mut out);
+            Err(done) => {
+                back_from_off_loop(&mut sched, done, &mut out);
                 continue;
             }
         };
@@ -335,6 +326,16 @@ pub async fn run(mut rx: EventRx, config: ServerConfig, state: LoopState) {
                 }
             }
             Event::Shutdown => {
+                // A job whose film is being ended or estimated has all its
+                // tiles in: it is delivered (and journalled) rather than
+                // failed or merged again at the next start.
+                let until = tokio::time::Instant::now() + LENT_FILMS_WAIT;
+                while sched.films_lent() {
+                    match tokio::time::timeout_at(until, off_loop.recv()).await {
+                        Ok(Some(done)) => back_from_off_loop(&mut sched, done, &mut out),
+                        _ => break,
+                    }
+                }
                 sched.shutdown(&mut out);
                 if out.durable() {
                     // Watchers reconnect and find their job again.
@@ -351,6 +352,22 @@ pub async fn run(mut rx: EventRx, config: ServerConfig, state: LoopState) {
                 }
                 break;
             }
+        }
+    }
+}
+
+/// How long a shutdown waits for films being ended or estimated off the
+/// loop (a 2048² film's end takes about 0.2 s).
+const LENT_FILMS_WAIT: Duration = Duration::from_secs(30);
+
+/// Gives the scheduler a film back from off the loop, or its job's failure.
+fn back_from_off_loop(sched: &mut Scheduler, done: OffLoop, out: &mut GrpcOutbox) {
+    match done {
+        OffLoop::Ended(job, ended) => sched.film_ended(job, ended, out),
+        OffLoop::Estimated(job, film, estimate) => sched.pass_estimated(job, *film, estimate, out),
+        OffLoop::Panicked(job, why) => {
+            let reason = format!("internal error while ending the job's film: {why}");
+            sched.abandon(job, reason, out);
         }
     }
 }

@@ -8,6 +8,8 @@ mod live;
 mod outbox;
 mod queues;
 mod service;
+#[cfg(test)]
+mod shutdown_tests;
 mod submission;
 
 pub use events::{Event, FromWorker};
