@@ -167,8 +167,11 @@ fn job_view(j: &Job, now: Instant, rel_mse: &mut impl FnMut(JobId) -> Option<f64
     let eta = elapsed
         .filter(|_| j.done_tiles > 0)
         .map(|e| e * f64::from(total - j.done_tiles.min(total)) / f64::from(j.done_tiles));
+    // A film lent off the loop is still running: its caller knows the
+    // estimate it last showed.
     let estimate = match &j.film {
         Some(_) if j.done_tiles > 0 => rel_mse(j.id),
+        None if running => rel_mse(j.id),
         _ => j.rel_mse,
     };
     let holders: HashSet<WorkerId> = j.in_flight.values().map(|(w, _)| *w).collect();

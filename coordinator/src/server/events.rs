@@ -11,7 +11,7 @@ use crate::scheduler::{JobRow, JobSpec, JobUpdate, Outbox, Scheduler, Snapshot, 
 use crate::scheduler::{JobView, WorkerView};
 use crate::state::{unix_now, BlobStore, Command, Journal, SavedJob};
 use farm_common::ids::{JobId, WorkerId};
-use std::collections::HashMap;
+use std::collections::{HashMap, HashSet};
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 use tokio::sync::{mpsc, oneshot};
@@ -169,6 +169,8 @@ pub async fn run(mut rx: EventRx, config: ServerConfig, state: LoopState) {
     let keep = config.state.keep_finished;
     let mut last_purge: Option<Instant> = None;
     let mut unwatched: HashMap<JobId, Instant> = HashMap::new();
+    // The running estimate each active job's row last showed.
+    let mut shown: HashMap<JobId, f64> = HashMap::new();
     loop {
         // A film back from off the loop goes first: its job waits for it.
         let ev = tokio::select! {
@@ -265,13 +267,17 @@ pub async fn run(mut rx: EventRx, config: ServerConfig, state: LoopState) {
             Event::Views { reply } => {
                 // Each running estimate is brought up to date over the
                 // tiles merged since the last look, not recomputed.
-                let mut estimates = HashMap::new();
-                for (job, _) in sched.active_jobs() {
-                    if let Some(film) = sched.film_mut(job) {
-                        estimates.insert(job, film.running_estimate());
-                    }
+                // A job whose film is lent off the loop keeps the last one.
+                let active: HashSet<JobId> = sched.active_jobs().into_iter().map(|a| a.0).collect();
+                shown.retain(|job, _| active.contains(job));
+                for job in active {
+                    match sched.film_mut(job).map(|film| film.running_estimate()) {
+                        Some(Some(e)) => shown.insert(job, e),
+                        Some(None) => shown.remove(&job),
+                        None => None,
+                    };
                 }
-                let views = sched.views(now, |job| estimates.get(&job).copied().flatten());
+                let views = sched.views(now, |job| shown.get(&job).copied());
                 let _ = reply.send(views);
             }
             Event::Live { job, from, merged, facts, reply } => {
@@ -279,7 +285,10 @@ pub async fn run(mut rx: EventRx, config: ServerConfig, state: LoopState) {
                 let answer = live_answer(&mut sched, &mut out.recent, job, at, now);
                 let facts = facts.then(|| {
                     // Up to date already: the answer brought it up to date.
-                    let estimate = sched.film_mut(job).and_then(|f| f.running_estimate());
+                    let estimate = match sched.film_mut(job) {
+                        Some(f) => f.running_estimate(),
+                        None => shown.get(&job).copied(),
+                    };
                     sched.view(job, now, |_| estimate)
                 });
                 let _ = reply.send((answer, facts.flatten()));

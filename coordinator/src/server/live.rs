@@ -273,6 +273,8 @@ mod tests {
         let mut recent = RecentImages::default();
         let answer = live_answer(&mut sched, &mut recent, job, (0, 0), now);
         assert!(matches!(answer, LiveAnswer::Running(_)), "a page is told to look again");
+        let row = sched.view(job, now, |_| Some(0.25)).expect("the job");
+        assert_eq!(row.rel_mse, Some(0.25), "its row keeps the estimate it showed");
         let Some(OffLoop::Ended(j, ended)) = off_rx.recv().await else { panic!("no film back") };
         sched.film_ended(j, ended, &mut out);
         send_live(&sched, &mut out, now, Pace::Tick);
