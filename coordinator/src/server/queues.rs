@@ -49,21 +49,40 @@ pub struct EventRx {
     workers: mpsc::UnboundedReceiver<Event>,
     /// Whether each queue still has senders.
     open: (bool, bool),
+    /// Requests taken since the last worker message.
+    in_a_row: u32,
 }
 
+/// At most this many requests are taken while a worker message waits, so
+/// a flood of requests slows the farm's work but does not stop it.
+const REQUESTS_IN_A_ROW: u32 = 32;
+
 impl EventRx {
-    /// The next event, a waiting request first; `None` once every sender
-    /// of both queues is gone. Cancel-safe, as each queue's `recv` is.
+    /// The next event, a waiting request first (but a waiting worker
+    /// message after [`REQUESTS_IN_A_ROW`] requests); `None` once every
+    /// sender of both queues is gone. Cancel-safe, as each queue's `recv` is.
     pub async fn recv(&mut self) -> Option<Event> {
+        if self.in_a_row >= REQUESTS_IN_A_ROW {
+            if let Ok(ev) = self.workers.try_recv() {
+                self.in_a_row = 0;
+                return Some(ev);
+            }
+        }
         loop {
             tokio::select! {
                 biased;
                 ev = self.requests.recv(), if self.open.0 => match ev {
-                    Some(ev) => return Some(ev),
+                    Some(ev) => {
+                        self.in_a_row += 1;
+                        return Some(ev);
+                    }
                     None => self.open.0 = false,
                 },
                 ev = self.workers.recv(), if self.open.1 => match ev {
-                    Some(ev) => return Some(ev),
+                    Some(ev) => {
+                        self.in_a_row = 0;
+                        return Some(ev);
+                    }
                     None => self.open.1 = false,
                 },
                 else => return None,
@@ -76,7 +95,8 @@ impl EventRx {
 pub fn channel() -> (EventTx, EventRx) {
     let (requests, requests_rx) = mpsc::unbounded_channel();
     let (workers, workers_rx) = mpsc::unbounded_channel();
-    let rx = EventRx { requests: requests_rx, workers: workers_rx, open: (true, true) };
+    let rx =
+        EventRx { requests: requests_rx, workers: workers_rx, open: (true, true), in_a_row: 0 };
     (EventTx { requests, workers }, rx)
 }
 
@@ -120,5 +140,25 @@ mod tests {
         }
         let want = ["cancel 7", "cancel 8", "gone 1", "tick", "gone 2", "gone 3"];
         assert_eq!(seen, want);
+    }
+
+    /// A flood of requests lets a waiting worker message through after
+    /// at most `REQUESTS_IN_A_ROW` of them.
+    #[tokio::test]
+    async fn a_flood_of_requests_does_not_stop_the_workers_messages() {
+        let (tx, mut rx) = channel();
+        for job in 0..3 * REQUESTS_IN_A_ROW as u64 {
+            tx.send(cancel(job)).unwrap();
+        }
+        tx.send(Event::WorkerGone { id: WorkerId(1) }).unwrap();
+        let mut taken = 0;
+        loop {
+            let ev = rx.recv().await.unwrap();
+            if matches!(ev, Event::WorkerGone { .. }) {
+                break;
+            }
+            taken += 1;
+        }
+        assert_eq!(taken, REQUESTS_IN_A_ROW, "requests taken before the worker's message");
     }
 }
