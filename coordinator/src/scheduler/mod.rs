@@ -22,7 +22,7 @@ mod passes;
 mod queue_tests;
 mod restore;
 #[cfg(test)]
-mod tests;
+pub(crate) mod tests;
 mod views;
 mod workers;
 
@@ -121,11 +121,10 @@ impl Scheduler {
         lent.then_some(&j.spec.geometry)
     }
 
-    /// Whether any active job's film is lent out (see [`Scheduler::film_lent`]).
-    pub fn films_lent(&self) -> bool {
-        self.jobs
-            .values()
-            .any(|j| j.state.is_active() && (j.ending.is_some() || j.estimating.is_some()))
+    /// Whether any active job's film is being ended off the loop
+    /// ([`Outbox::end_film`]).
+    pub fn films_ending(&self) -> bool {
+        self.jobs.values().any(|j| j.state.is_active() && j.ending.is_some())
     }
 
     /// The film of an active job, as it stands (for live previews).

@@ -64,7 +64,7 @@ pub(super) fn geometry() -> FilmGeometry {
     )
 }
 
-pub(super) fn spec(priority: i32) -> JobSpec {
+pub(crate) fn spec(priority: i32) -> JobSpec {
     JobSpec {
         name: "t".into(),
         priority,
@@ -82,7 +82,7 @@ pub(super) fn spec(priority: i32) -> JobSpec {
 }
 
 /// What any worker would render for a tile: depends only on the tile.
-pub(super) fn render(g: &FilmGeometry, tile: TileId) -> FilmTile {
+pub(crate) fn render(g: &FilmGeometry, tile: TileId) -> FilmTile {
     let mut t = FilmTile::new(g.tile_pixel_bounds(tile));
     for p in t.pixel_bounds.iter() {
         let v = ((p.x * 31 + p.y * 17 + tile.0 as i32 * 7) % 97) as f32 / 97.0 + 0.013;

@@ -169,7 +169,7 @@ pub async fn run(mut rx: EventRx, config: ServerConfig, state: LoopState) {
     let keep = config.state.keep_finished;
     let mut last_purge: Option<Instant> = None;
     let mut unwatched: HashMap<JobId, Instant> = HashMap::new();
-    // The running estimate each active job's row last showed.
+    // The running estimate each active job's row or page was last shown.
     let mut shown: HashMap<JobId, f64> = HashMap::new();
     loop {
         // A film back from off the loop goes first: its job waits for it.
@@ -285,10 +285,12 @@ pub async fn run(mut rx: EventRx, config: ServerConfig, state: LoopState) {
                 let answer = live_answer(&mut sched, &mut out.recent, job, at, now);
                 let facts = facts.then(|| {
                     // Up to date already: the answer brought it up to date.
-                    let estimate = match sched.film_mut(job) {
-                        Some(f) => f.running_estimate(),
-                        None => shown.get(&job).copied(),
+                    match sched.film_mut(job).map(|f| f.running_estimate()) {
+                        Some(Some(e)) => shown.insert(job, e),
+                        Some(None) => shown.remove(&job),
+                        None => None,
                     };
+                    let estimate = shown.get(&job).copied();
                     sched.view(job, now, |_| estimate)
                 });
                 let _ = reply.send((answer, facts.flatten()));
@@ -335,12 +337,14 @@ pub async fn run(mut rx: EventRx, config: ServerConfig, state: LoopState) {
                 }
             }
             Event::Shutdown => {
-                // A job whose film is being ended or estimated has all its
-                // tiles in: it is delivered (and journalled) rather than
-                // failed or merged again at the next start.
+                // A job whose film is being ended has all its tiles in: it
+                // is delivered (and journalled) rather than failed or merged
+                // again at the next start. A pass's estimate is not waited
+                // for, nor taken if it comes: it would start the next pass.
                 let until = tokio::time::Instant::now() + LENT_FILMS_WAIT;
-                while sched.films_lent() {
+                while sched.films_ending() {
                     match tokio::time::timeout_at(until, off_loop.recv()).await {
+                        Ok(Some(OffLoop::Estimated(..))) => {}
                         Ok(Some(done)) => back_from_off_loop(&mut sched, done, &mut out),
                         _ => break,
                     }
@@ -365,8 +369,7 @@ pub async fn run(mut rx: EventRx, config: ServerConfig, state: LoopState) {
     }
 }
 
-/// How long a shutdown waits for films being ended or estimated off the
-/// loop (a 2048² film's end takes about 0.2 s).
+/// How long a shutdown waits for films being ended off the loop (a 2048² film's end takes about 0.2 s).
 const LENT_FILMS_WAIT: Duration = Duration::from_secs(30);
 
 /// Gives the scheduler a film back from off the loop, or its job's failure.

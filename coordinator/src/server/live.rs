@@ -225,27 +225,14 @@ mod tests {
     #[tokio::test]
     async fn watchers_wait_for_a_film_lent_off_the_loop() {
         use crate::live::LiveCursor;
-        use crate::scheduler::{JobSpec, Owner, SchedulerConfig};
+        use crate::scheduler::tests::{render, spec};
+        use crate::scheduler::{JobSpec, SchedulerConfig};
         use crate::server::outbox::OffLoop;
-        use farm_common::film::FilmTile;
         use farm_common::geometry::{Bounds2i, Point2i, Vec2};
         use farm_common::ids::{TileAttempt, WorkerId};
         let b = Bounds2i::new(Point2i::new(0, 0), Point2i::new(40, 20));
         let g = FilmGeometry::new(b.max, b, Vec2::splat(0.5), 1.0, f32::INFINITY, "x".into(), 35.0);
-        let spec = JobSpec {
-            name: "t".into(),
-            priority: 0,
-            scene_hash: vec![1; 32],
-            spp_override: 0,
-            spp: 2,
-            geometry: g.clone(),
-            owner: Owner::default(),
-            detach: false,
-            blobs: Vec::new(),
-            shot: None,
-            passes: None,
-            parallel_tiles: false,
-        };
+        let spec = JobSpec { spp: 2, geometry: g.clone(), ..spec(0) };
         let (off_tx, mut off_rx) = mpsc::unbounded_channel();
         let mut out = GrpcOutbox { off_loop: Some(off_tx), ..Default::default() };
         let (worker_tx, mut to_worker) = mpsc::unbounded_channel();
@@ -259,13 +246,8 @@ mod tests {
         while let Ok(Ok(msg)) = to_worker.try_recv() {
             let Some(v1::coordinator_message::Kind::Assign(a)) = msg.kind else { continue };
             let tile = farm_common::ids::TileId(a.tile);
-            let mut t = FilmTile::new(g.tile_pixel_bounds(tile));
-            for p in t.pixel_bounds.iter() {
-                t.add(p, farm_common::Spectrum::new(1.0, 0.5, 0.25), 1.0, false);
-                t.add(p, farm_common::Spectrum::new(1.0, 0.5, 0.25), 1.0, true);
-            }
             let key = TileAttempt { job, tile, attempt: a.attempt };
-            sched.tile_done(WorkerId(1), key, t, Default::default(), &mut out);
+            sched.tile_done(WorkerId(1), key, render(&g, tile), Default::default(), &mut out);
         }
         assert!(sched.film_lent(job).is_some(), "every tile is in: the film is being ended");
         send_live(&sched, &mut out, now, Pace::Tick);

@@ -5,10 +5,11 @@ use super::events::Event;
 use tokio::sync::mpsc;
 
 impl Event {
-    /// Whether the event comes from the workers' side: their streams, and
-    /// the ticks that judge them and stop the loop, which must come after
-    /// the messages queued before them (a tick ahead of a worker's queued
-    /// results could find it silent).
+    /// Whether the event comes from the workers' side: their streams, the
+    /// tick that judges them and the shutdown, which must come after the
+    /// messages queued before them (a tick ahead of a worker's queued
+    /// results could find it silent). The live previews' tick and the
+    /// gauges' refresh are requests: they only read what is there.
     fn is_workers_side(&self) -> bool {
         matches!(
             self,

@@ -3,17 +3,23 @@
 use super::events::{self, Event, FromWorker, LoopState};
 use super::ServerConfig;
 use crate::merge::Film;
-use crate::scheduler::{JobSpec, Owner};
+use crate::scheduler::tests::{render, spec};
+use crate::scheduler::JobSpec;
 use crate::state::{State, StateConfig};
-use farm_common::film::{FilmGeometry, FilmTile};
+use farm_common::film::{FilmGeometry, PassPlan};
 use farm_common::geometry::{Bounds2i, Point2i, Vec2};
 use farm_common::ids::{JobId, TileAttempt, TileId, WorkerId};
 use farm_proto::v1::{self, coordinator_message, job_event};
 use tokio::sync::{mpsc, oneshot};
 
-/// What a watcher of a job whose last tile came in just before the
-/// coordinator was told to stop is sent, with or without a state directory.
-async fn watch_a_job_ended_by_a_shutdown(dir: Option<std::path::PathBuf>) -> Vec<String> {
+/// What a watcher of a job whose last tile (of its first pass, with
+/// `passes`) came in just before the coordinator was told to stop is sent,
+/// with or without a state directory; and how many more tiles the worker
+/// was handed out after it.
+async fn watch_a_job_ended_by_a_shutdown(
+    dir: Option<std::path::PathBuf>,
+    passes: Option<PassPlan>,
+) -> (Vec<String>, usize) {
     let config = StateConfig { dir, ..StateConfig::default() };
     let state = State::open(&config).expect("a state");
     let durable = config.dir.is_some();
@@ -29,22 +35,10 @@ async fn watch_a_job_ended_by_a_shutdown(dir: Option<std::path::PathBuf>) -> Vec
     let run = tokio::spawn(events::run(rx, server, loop_state));
 
     // A film large enough that its end takes a while off the loop.
-    let b = Bounds2i::new(Point2i::new(0, 0), Point2i::new(512, 512));
+    let b = Bounds2i::new(Point2i::new(0, 0), Point2i::new(1024, 1024));
     let g = FilmGeometry::new(b.max, b, Vec2::splat(0.5), 1.0, f32::INFINITY, "x".into(), 35.0);
-    let spec = JobSpec {
-        name: "t".into(),
-        priority: 0,
-        scene_hash: vec![1; 32],
-        spp_override: 0,
-        spp: 2,
-        geometry: g.clone(),
-        owner: Owner::default(),
-        detach: true,
-        blobs: Vec::new(),
-        shot: None,
-        passes: None,
-        parallel_tiles: false,
-    };
+    let spp = passes.as_ref().map_or(2, |p| *p.totals.last().unwrap());
+    let spec = JobSpec { spp, geometry: g.clone(), detach: true, passes, ..spec(0) };
     let (worker_tx, mut to_worker) = mpsc::unbounded_channel();
     let id = WorkerId(1);
     let joined =
@@ -66,18 +60,17 @@ async fn watch_a_job_ended_by_a_shutdown(dir: Option<std::path::PathBuf>) -> Vec
         let msg = to_worker.recv().await.expect("hand-outs").expect("not an error");
         let Some(coordinator_message::Kind::Assign(a)) = msg.kind else { continue };
         let tile = TileId(a.tile);
-        let mut film_tile = FilmTile::new(g.tile_pixel_bounds(tile));
-        for p in film_tile.pixel_bounds.iter() {
-            film_tile.add(p, farm_common::Spectrum::new(1.0, 0.5, 0.25), 1.0, false);
-            film_tile.add(p, farm_common::Spectrum::new(0.9, 0.5, 0.25), 1.0, true);
-        }
         let key = TileAttempt { job, tile, attempt: a.attempt };
-        let msg = FromWorker::Tile { key, film_tile, stats: Default::default() };
+        let msg = FromWorker::Tile { key, film_tile: render(&g, tile), stats: Default::default() };
         events.send(Event::FromWorker { id, msg }).unwrap();
         sent += 1;
     }
     events.send(Event::Shutdown).unwrap();
     run.await.unwrap();
+    let mut more = 0;
+    while let Some(Ok(msg)) = to_worker.recv().await {
+        more += usize::from(matches!(msg.kind, Some(coordinator_message::Kind::Assign(_))));
+    }
 
     let mut seen = Vec::new();
     while let Some(ev) = watched.recv().await {
@@ -91,7 +84,7 @@ async fn watch_a_job_ended_by_a_shutdown(dir: Option<std::path::PathBuf>) -> Vec
             seen.push(label);
         }
     }
-    seen
+    (seen, more)
 }
 
 /// A job whose every tile is in when the coordinator is told to stop is
@@ -99,16 +92,27 @@ async fn watch_a_job_ended_by_a_shutdown(dir: Option<std::path::PathBuf>) -> Vec
 /// the next start: the stop waits for its film's end off the loop.
 #[tokio::test]
 async fn a_shutdown_waits_for_a_film_being_ended() {
-    let seen = watch_a_job_ended_by_a_shutdown(None).await;
-    assert_eq!(seen, ["image"], "without a state directory");
+    let seen = watch_a_job_ended_by_a_shutdown(None, None).await;
+    assert_eq!(seen, (vec!["image".to_string()], 0), "without a state directory");
     let dir = std::env::temp_dir().join(format!("farm-shutdown-{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&dir);
-    let seen = watch_a_job_ended_by_a_shutdown(Some(dir.clone())).await;
-    assert_eq!(seen, ["image"], "with a state directory");
+    let seen = watch_a_job_ended_by_a_shutdown(Some(dir.clone()), None).await;
+    assert_eq!(seen, (vec!["image".to_string()], 0), "with a state directory");
     // The next start finds it done: nothing to resume.
     let state = State::open(&StateConfig { dir: Some(dir.clone()), ..StateConfig::default() });
     let resumed = state.expect("the state reopens").jobs;
     assert_eq!(resumed.len(), 1, "the job is kept");
     assert!(resumed[0].ending.is_some(), "as ended, not to be resumed");
     let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// A stop while a pass's estimate is worked out neither waits for it nor
+/// starts the next pass: no tile of it is handed out, and the job fails
+/// as any unfinished job does without a state directory.
+#[tokio::test]
+async fn a_shutdown_does_not_start_the_next_pass() {
+    let plan = PassPlan::new(16, Some(1e-12), None);
+    let (seen, more) = watch_a_job_ended_by_a_shutdown(None, Some(plan)).await;
+    assert_eq!(seen, ["the coordinator is shutting down"]);
+    assert_eq!(more, 0, "tiles of the next pass were handed out");
 }
