@@ -143,12 +143,7 @@ where
                 Err("a part of a tile handed to the only worker".to_string())
             } else {
                 catch_unwind(AssertUnwindSafe(|| render(a.tile, a.samples))).map_err(|p| {
-                    let msg = p
-                        .downcast_ref::<&str>()
-                        .map(|s| s.to_string())
-                        .or_else(|| p.downcast_ref::<String>().cloned())
-                        .unwrap_or_else(|| "unknown panic".to_string());
-                    format!("render thread panicked: {msg}")
+                    format!("render thread panicked: {}", farm_common::panic_message(&*p))
                 })
             };
             // A closed channel means the render was abandoned.

@@ -27,5 +27,15 @@ pub mod spectrum;
 /// Ray counts.
 pub mod stats;
 
+/// What a caught panic said (`std::panic::catch_unwind`'s payload), or
+/// "unknown panic" when it was neither a `&str` nor a `String`.
+pub fn panic_message(payload: &(dyn std::any::Any + Send)) -> String {
+    payload
+        .downcast_ref::<&str>()
+        .map(|s| s.to_string())
+        .or_else(|| payload.downcast_ref::<String>().cloned())
+        .unwrap_or_else(|| "unknown panic".to_string())
+}
+
 pub use geometry::{Bounds2i, Bounds3f, Point2i, Ray, Transform, Vec2, Vec3};
 pub use spectrum::Spectrum;

@@ -39,14 +39,8 @@ impl CpuPool {
     {
         let (tx, rx) = oneshot::channel();
         self.pool.spawn(move || {
-            let result = catch_unwind(AssertUnwindSafe(f)).map_err(|p| {
-                let msg = p
-                    .downcast_ref::<&str>()
-                    .map(|s| s.to_string())
-                    .or_else(|| p.downcast_ref::<String>().cloned())
-                    .unwrap_or_else(|| "unknown panic".to_string());
-                Error::Panicked(msg)
-            });
+            let result = catch_unwind(AssertUnwindSafe(f))
+                .map_err(|p| Error::Panicked(farm_common::panic_message(&*p)));
             // The receiver is gone when the waiting task was cancelled.
             let _ = tx.send(result);
         });

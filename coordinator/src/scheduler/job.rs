@@ -201,6 +201,21 @@ impl Job {
 }
 
 impl Job {
+    /// Whether its film is lent out, being ended or a pass's estimated.
+    pub(super) fn film_lent(&self) -> bool {
+        self.ending.is_some() || self.estimating.is_some()
+    }
+
+    /// Takes its film to lend it out: every tile of the pass is in, so none
+    /// is left to hand out meanwhile (a tile put back after its holder
+    /// failed, whose parts came back first, may still be queued).
+    pub(super) fn lend_film(&mut self) -> Option<Film> {
+        let film = self.film.take()?;
+        self.pending.clear();
+        self.out_order.clear();
+        Some(film)
+    }
+
     /// The samples each pixel gets in the pass under way, when the job
     /// renders in passes.
     pub(super) fn samples(&self) -> Option<SampleRange> {

@@ -101,7 +101,7 @@ impl Scheduler {
         match self.jobs.get(&key.job) {
             // A job ended while the answer was on its way; a worker declared
             // lost may still have had a few messages in flight.
-            Some(j) if !j.state.is_active() || j.ending.is_some() || j.estimating.is_some() => {
+            Some(j) if !j.state.is_active() || j.film_lent() => {
                 debug!(job, tile, "{what} for a finished job or pass ignored")
             }
             _ if !self.workers.contains_key(&worker) => {
@@ -418,15 +418,10 @@ impl Scheduler {
     pub(super) fn finish(&mut self, job: JobId, out: &mut impl Outbox) {
         let now = self.now();
         let Some(j) = self.jobs.get_mut(&job) else { return };
-        let Some(film) = j.film.take() else { return };
+        let Some(film) = j.lend_film() else { return };
         let render_seconds = j.started.map(|s| now.duration_since(s).as_secs_f64()).unwrap_or(0.0);
         let spp = j.pass_ends.last().map_or(j.spec.spp, |p| p.spp);
         j.ending = Some((spp, render_seconds));
-        // Every tile is in: none is left to hand out while the film is lent
-        // (a tile put back after its holder failed, whose parts came back
-        // first, may still be queued).
-        j.pending.clear();
-        j.out_order.clear();
         if let Some(ended) = out.end_film(job, film, spp) {
             self.film_ended(job, ended, out);
         }

@@ -117,7 +117,7 @@ impl Scheduler {
     /// [`Outbox::end_film`]): it has no film for now, but is not over.
     pub fn film_lent(&self, job: JobId) -> Option<&farm_common::film::FilmGeometry> {
         let j = self.jobs.get(&job)?;
-        let lent = j.state.is_active() && (j.ending.is_some() || j.estimating.is_some());
+        let lent = j.state.is_active() && j.film_lent();
         lent.then_some(&j.spec.geometry)
     }
 

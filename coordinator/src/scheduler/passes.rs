@@ -21,13 +21,10 @@ impl Scheduler {
         let now = self.now();
         let Some(j) = self.jobs.get_mut(&job) else { return };
         let Some(plan) = j.spec.passes.as_ref() else { return self.finish(job, out) };
-        let Some(film) = j.film.take() else { return };
         let spp = plan.totals[j.pass as usize];
+        let Some(film) = j.lend_film() else { return };
         let seconds = j.started.map_or(0.0, |s| now.duration_since(s).as_secs_f64());
         j.estimating = Some(seconds);
-        // Every tile of the pass is in (see `finish`).
-        j.pending.clear();
-        j.out_order.clear();
         if let Some((film, estimate)) = out.estimate_pass(job, film, spp) {
             self.next_pass(job, film, estimate, out);
         }

@@ -271,11 +271,7 @@ pub async fn run(mut rx: EventRx, config: ServerConfig, state: LoopState) {
                 let active: HashSet<JobId> = sched.active_jobs().into_iter().map(|a| a.0).collect();
                 shown.retain(|job, _| active.contains(job));
                 for job in active {
-                    match sched.film_mut(job).map(|film| film.running_estimate()) {
-                        Some(Some(e)) => shown.insert(job, e),
-                        Some(None) => shown.remove(&job),
-                        None => None,
-                    };
+                    shown_estimate(&mut sched, &mut shown, job);
                 }
                 let views = sched.views(now, |job| shown.get(&job).copied());
                 let _ = reply.send(views);
@@ -285,12 +281,7 @@ pub async fn run(mut rx: EventRx, config: ServerConfig, state: LoopState) {
                 let answer = live_answer(&mut sched, &mut out.recent, job, at, now);
                 let facts = facts.then(|| {
                     // Up to date already: the answer brought it up to date.
-                    match sched.film_mut(job).map(|f| f.running_estimate()) {
-                        Some(Some(e)) => shown.insert(job, e),
-                        Some(None) => shown.remove(&job),
-                        None => None,
-                    };
-                    let estimate = shown.get(&job).copied();
+                    let estimate = shown_estimate(&mut sched, &mut shown, job);
                     sched.view(job, now, |_| estimate)
                 });
                 let _ = reply.send((answer, facts.flatten()));
@@ -371,6 +362,22 @@ pub async fn run(mut rx: EventRx, config: ServerConfig, state: LoopState) {
 
 /// How long a shutdown waits for films being ended off the loop (a 2048² film's end takes about 0.2 s).
 const LENT_FILMS_WAIT: Duration = Duration::from_secs(30);
+
+/// The running estimate to show for `job`, brought up to date over the
+/// tiles merged since the last look and noted in `shown`; while its film
+/// is lent off the loop, the one last shown.
+fn shown_estimate(
+    sched: &mut Scheduler,
+    shown: &mut HashMap<JobId, f64>,
+    job: JobId,
+) -> Option<f64> {
+    match sched.film_mut(job).map(|film| film.running_estimate()) {
+        Some(Some(e)) => shown.insert(job, e),
+        Some(None) => shown.remove(&job),
+        None => None,
+    };
+    shown.get(&job).copied()
+}
 
 /// Gives the scheduler a film back from off the loop, or its job's failure.
 fn back_from_off_loop(sched: &mut Scheduler, done: OffLoop, out: &mut GrpcOutbox) {

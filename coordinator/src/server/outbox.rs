@@ -69,14 +69,8 @@ pub(super) enum OffLoop {
 fn off_loop(tx: OffLoopTx, job: JobId, work: impl FnOnce() -> OffLoop + Send + 'static) {
     tokio::task::spawn_blocking(move || {
         let done = std::panic::catch_unwind(std::panic::AssertUnwindSafe(work));
-        let _ = tx.send(done.unwrap_or_else(|p| {
-            let why = p
-                .downcast_ref::<&str>()
-                .map(|s| s.to_string())
-                .or_else(|| p.downcast_ref::<String>().cloned())
-                .unwrap_or_default();
-            OffLoop::Panicked(job, why)
-        }));
+        let _ = tx
+            .send(done.unwrap_or_else(|p| OffLoop::Panicked(job, farm_common::panic_message(&*p))));
     });
 }
 

@@ -223,11 +223,7 @@ pub fn encode_tile(tile: &FilmTile, stats: &RayStats) -> Vec<u8> {
     let head = (&tile.pixel_bounds, tile.pixels.len() as u64);
     out = postcard::to_extend(&head, out).unwrap_or_default();
     for p in &tile.pixels {
-        let mut bytes = [0u8; PIXEL];
-        for (b, f) in bytes.chunks_exact_mut(4).zip(p.to_array()) {
-            b.copy_from_slice(&f.to_le_bytes());
-        }
-        out.extend_from_slice(&bytes);
+        farm_common::le::extend_f32s(&mut out, &p.to_array());
     }
     postcard::to_extend(stats, out).unwrap_or_default()
 }
