@@ -62,6 +62,14 @@ fn render_all(s: &mut Scheduler, out: &mut Later, job: JobId) {
     }
 }
 
+/// A scheduler with one worker, whose outbox ends films later.
+fn one_worker() -> (Scheduler, Later) {
+    let mut s = Scheduler::new(SchedulerConfig::default());
+    let mut out = Later::default();
+    s.worker_joined(WorkerId(1), "a".into(), 1, 4, Instant::now(), &mut out);
+    (s, out)
+}
+
 fn state(s: &Scheduler, job: JobId) -> &'static str {
     s.jobs[&job].state.name()
 }
@@ -69,9 +77,7 @@ fn state(s: &Scheduler, job: JobId) -> &'static str {
 #[test]
 fn a_film_ended_later_lets_other_jobs_go_on_and_gives_the_same_image() {
     let reference = reference_image();
-    let mut s = Scheduler::new(SchedulerConfig::default());
-    let mut out = Later::default();
-    s.worker_joined(WorkerId(1), "a".into(), 1, 4, Instant::now(), &mut out);
+    let (mut s, mut out) = one_worker();
     let first = s.submit(spec(1), &mut out);
     let second = s.submit(spec(0), &mut out);
     // The first job's tiles all in: its film waits to be ended, and the
@@ -109,9 +115,7 @@ fn a_film_ended_later_lets_other_jobs_go_on_and_gives_the_same_image() {
 
 #[test]
 fn a_job_cancelled_while_its_film_is_ended_stays_cancelled() {
-    let mut s = Scheduler::new(SchedulerConfig::default());
-    let mut out = Later::default();
-    s.worker_joined(WorkerId(1), "a".into(), 1, 4, Instant::now(), &mut out);
+    let (mut s, mut out) = one_worker();
     let job = s.submit(spec(0), &mut out);
     render_all(&mut s, &mut out, job);
     let (_, film, spp) = out.films.pop().expect("the film is complete");
@@ -133,9 +137,7 @@ fn a_pass_estimated_later_starts_the_next_pass_as_one_estimated_at_once() {
     run(&mut s, &mut now);
     let reference = finished(&now, job);
 
-    let mut s = Scheduler::new(SchedulerConfig::default());
-    let mut out = Later::default();
-    s.worker_joined(WorkerId(1), "a".into(), 1, 4, Instant::now(), &mut out);
+    let (mut s, mut out) = one_worker();
     let job = s.submit(in_passes(&plan), &mut out);
     let g = geometry();
     let mut estimated = 0;
@@ -170,9 +172,7 @@ fn a_pass_estimated_later_starts_the_next_pass_as_one_estimated_at_once() {
 #[test]
 fn a_job_cancelled_while_its_pass_is_estimated_starts_no_other_pass() {
     use super::pass_tests::{in_passes, three};
-    let mut s = Scheduler::new(SchedulerConfig::default());
-    let mut out = Later::default();
-    s.worker_joined(WorkerId(1), "a".into(), 1, 4, Instant::now(), &mut out);
+    let (mut s, mut out) = one_worker();
     let job = s.submit(in_passes(&three(None, None)), &mut out);
     render_all(&mut s, &mut out, job);
     let (_, mut film, spp) = out.passes.pop().expect("the first pass is complete");
@@ -190,9 +190,7 @@ fn a_job_cancelled_while_its_pass_is_estimated_starts_no_other_pass() {
 /// holder failed, whose parts came back first, could be).
 #[test]
 fn a_lent_film_hands_out_nothing_and_takes_no_result() {
-    let mut s = Scheduler::new(SchedulerConfig::default());
-    let mut out = Later::default();
-    s.worker_joined(WorkerId(1), "a".into(), 1, 4, Instant::now(), &mut out);
+    let (mut s, mut out) = one_worker();
     let job = s.submit(spec(0), &mut out);
     render_all(&mut s, &mut out, job);
     assert!(s.film_lent(job).is_some());
