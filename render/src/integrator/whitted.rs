@@ -182,8 +182,15 @@ fn sample_specular(
     sampler: &mut Sampler,
     kind: BxDFType,
 ) -> Option<BsdfSample> {
+    let flags = kind | BxDFType::SPECULAR;
+    if bsdf.num_components(flags) == 0 {
+        // pbrt-v3 draws the pair and `Sample_f` ignores it: pass over it
+        // without computing it where the sampler allows (Halton, Sobol').
+        sampler.skip_2d();
+        return None;
+    }
     let u = sampler.get_2d();
-    let s = bsdf.sample_f(si.wo, u, kind | BxDFType::SPECULAR)?;
+    let s = bsdf.sample_f(si.wo, u, flags)?;
     let useful = s.pdf > 0.0 && !s.f.is_black() && s.wi.dot(si.shading.n) != 0.0;
     useful.then_some(s)
 }

@@ -250,9 +250,10 @@ mod tests {
         assert_eq!(make("stratified", &[]).samples_per_pixel(), 16);
     }
 
-    /// Skipping the time or lens dimensions leaves the film point and every
-    /// later value as they were, for every sampler, with and without arrays
-    /// (which Halton and Sobol' place right after the camera dimensions).
+    /// Skipping the time or lens dimensions, or a pair after them, leaves
+    /// the film point and every later value as they were, for every
+    /// sampler, with and without arrays (which Halton and Sobol' place
+    /// right after the camera dimensions).
     #[test]
     fn skipped_camera_dimensions_leave_later_values_alone() {
         for name in ["halton", "sobol", "02sequence", "maxmindist", "stratified", "random"] {
@@ -283,6 +284,10 @@ mod tests {
                         if arrays {
                             assert_eq!(full.get_2d_array(2), skip.get_2d_array(2), "{name}");
                         }
+                        // A pair drawn and ignored (Whitted's specular lobes
+                        // on a surface without them) is passed over too.
+                        full.get_2d();
+                        skip.skip_2d();
                         for _ in 0..3 {
                             assert_eq!(full.get_1d(), skip.get_1d(), "{name} {dims:?}");
                             assert_eq!(full.get_2d(), skip.get_2d(), "{name} {dims:?}");

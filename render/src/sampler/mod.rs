@@ -252,7 +252,7 @@ impl Sampler {
 
     /// Passes over the next 2D value.
     #[inline]
-    fn skip_2d(&mut self) {
+    pub(crate) fn skip_2d(&mut self) {
         match self {
             Sampler::Halton(s) => s.skip_2d(),
             Sampler::Sobol(s) => s.skip_2d(),
