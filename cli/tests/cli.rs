@@ -2,13 +2,12 @@
 //! naming file:line:column, exit code 2 and no panic.
 
 use std::ffi::OsStr;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::process::Command;
 
-fn temp_dir(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("farm-cli-{}-{name}", std::process::id()));
-    std::fs::create_dir_all(&d).expect("temp dir");
-    d
+/// An empty folder of the test's own, removed when dropped.
+fn temp_dir(name: &str) -> tempfile::TempDir {
+    tempfile::Builder::new().prefix(&format!("farm-cli-{name}-")).tempdir().expect("temp dir")
 }
 
 /// Runs `farm submit` on `scene` and returns (exit code, stderr).
@@ -31,7 +30,8 @@ fn farm_ok<S: AsRef<OsStr>>(args: impl IntoIterator<Item = S>) -> String {
 }
 
 fn expect_error(name: &str, scene: &str, extra: &[(&str, &[u8])], want_loc: &str) {
-    let dir = temp_dir(name);
+    let tmp = temp_dir(name);
+    let dir = tmp.path();
     for (file, bytes) in extra {
         std::fs::write(dir.join(file), bytes).expect("write");
     }
@@ -102,7 +102,8 @@ fn truncated_ply_is_located() {
 
 #[test]
 fn renders_the_example_scene_to_exr() {
-    let dir = temp_dir("example");
+    let tmp = temp_dir("example");
+    let dir = tmp.path();
     let out = dir.join("example.exr");
     let scene = Path::new(env!("CARGO_MANIFEST_DIR")).join("../scenes/example.pbrt");
     let status = Command::new(env!("CARGO_BIN_EXE_farm"))
@@ -122,7 +123,8 @@ fn renders_the_example_scene_to_exr() {
 #[test]
 fn diff_reports_the_error_and_writes_the_difference() {
     use farm_common::image::{read_file, write_image, ImageMetadata, RgbImage};
-    let dir = temp_dir("diff");
+    let tmp = temp_dir("diff");
+    let dir = tmp.path();
     let meta =
         ImageMetadata { scene: "t".into(), spp: 1, render_seconds: 0.0, rel_mse_estimate: None };
     let reference = RgbImage { width: 2, height: 1, pixels: vec![[1.0, 0.0, 0.5], [0.2; 3]] };
@@ -158,7 +160,8 @@ fn diff_reports_the_error_and_writes_the_difference() {
 /// table and the plot.
 #[test]
 fn converge_writes_the_table_and_the_plot() {
-    let dir = temp_dir("converge");
+    let tmp = temp_dir("converge");
+    let dir = tmp.path();
     let scene = dir.join("ball.pbrt");
     std::fs::write(
         &scene,
@@ -195,7 +198,8 @@ fn converge_writes_the_table_and_the_plot() {
 /// render skipped.
 #[test]
 fn verbose_submit_lists_features_and_skipped_paths() {
-    let dir = temp_dir("verbose");
+    let tmp = temp_dir("verbose");
+    let dir = tmp.path();
     let scene = dir.join("plain.pbrt");
     std::fs::write(&scene, format!("{HEAD}Shape \"sphere\"\nWorldEnd\n")).expect("write");
     let image = dir.join("plain.pfm");
@@ -218,7 +222,8 @@ fn verbose_submit_lists_features_and_skipped_paths() {
 /// pbrt-v3's.
 #[test]
 fn bench_tabulates_each_reference_scene() {
-    let dir = temp_dir("bench");
+    let tmp = temp_dir("bench");
+    let dir = tmp.path();
     std::fs::create_dir_all(dir.join("scenes/ball")).expect("dirs");
     std::fs::create_dir_all(dir.join("reference")).expect("dirs");
     // Enough work (96×96 pixels at 64 spp) for the CPU time, counted in
@@ -272,7 +277,8 @@ fn bench_tabulates_each_reference_scene() {
 /// test would abort or take minutes if it were).
 #[test]
 fn oversize_films_and_sample_counts_are_refused_before_rendering() {
-    let dir = temp_dir("oversize");
+    let tmp = temp_dir("oversize");
+    let dir = tmp.path();
     let big = dir.join("big.pbrt");
     let film = "Film \"image\" \"integer xresolution\" 100000 \"integer yresolution\" 100000";
     std::fs::write(&big, format!("{film}\nWorldBegin\nShape \"sphere\"\nWorldEnd\n")).unwrap();
@@ -315,7 +321,8 @@ fn oversize_films_and_sample_counts_are_refused_before_rendering() {
 #[test]
 fn a_closed_output_pipe_is_not_a_panic() {
     use farm_common::image::{write_image, ImageMetadata, RgbImage};
-    let dir = temp_dir("pipe");
+    let tmp = temp_dir("pipe");
+    let dir = tmp.path();
     let img = RgbImage { width: 1, height: 1, pixels: vec![[0.5; 3]] };
     let a = dir.join("a.exr");
     write_image(&a, &img, &ImageMetadata::default()).expect("write");
@@ -339,7 +346,8 @@ fn a_closed_output_pipe_is_not_a_panic() {
 /// in passes lists them and says why it stopped.
 #[test]
 fn the_summary_says_when_the_estimate_is_not_to_be_trusted() {
-    let dir = temp_dir("caveats");
+    let tmp = temp_dir("caveats");
+    let dir = tmp.path();
     let mut stars = String::from(
         "LookAt 0 0 0  0 0 1  0 1 0\nCamera \"perspective\" \"float fov\" [ 40 ]\n\
          Film \"image\" \"integer xresolution\" [ 64 ] \"integer yresolution\" [ 64 ]\n\

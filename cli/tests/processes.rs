@@ -15,8 +15,8 @@ use std::time::{Duration, Instant};
 
 #[test]
 fn sigkill_of_a_worker_process_changes_no_byte() {
-    let dir = std::env::temp_dir().join(format!("farm-procs-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).expect("temp dir");
+    let tmp = tempfile::Builder::new().prefix("farm-procs-").tempdir().expect("temp dir");
+    let dir = tmp.path();
     let state = dir.join("state");
     let mut procs = Procs(Vec::new());
     let url = start_coordinator(&mut procs, &state);
@@ -75,8 +75,8 @@ fn sigkill_of_a_worker_process_changes_no_byte() {
 
 #[test]
 fn sigkill_of_the_coordinator_loses_only_the_tiles_in_flight() {
-    let dir = std::env::temp_dir().join(format!("farm-procs-restart-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).expect("temp dir");
+    let tmp = tempfile::Builder::new().prefix("farm-procs-restart-").tempdir().expect("temp dir");
+    let dir = tmp.path();
     let state = dir.join("state");
     let listen = format!("127.0.0.1:{}", free_port());
     let mut procs = Procs(Vec::new());
@@ -170,7 +170,6 @@ fn sigkill_of_the_coordinator_loses_only_the_tiles_in_flight() {
     assert_eq!(code, Some(0), "{err}");
     assert!(std::fs::read(&watched).expect("watched image") == a, "farm watch wrote another image");
     drop(procs);
-    std::fs::remove_dir_all(dir).ok();
 }
 
 const MIB: u64 = 1 << 20;
@@ -188,8 +187,8 @@ fn made_up_chunk(hash: &[u8], n: u64, i: u64) -> farm_proto::v1::BlobChunk {
 #[test]
 fn upload_and_download_abuse_costs_the_coordinator_a_few_chunks() {
     use tonic::Code;
-    let dir = std::env::temp_dir().join(format!("farm-procs-abuse-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).expect("temp dir");
+    let tmp = tempfile::Builder::new().prefix("farm-procs-abuse-").tempdir().expect("temp dir");
+    let dir = tmp.path();
     let state = dir.join("state");
     let mut procs = Procs(Vec::new());
     let extra = ["--client-quota", "600M"];
@@ -287,7 +286,6 @@ fn upload_and_download_abuse_costs_the_coordinator_a_few_chunks() {
     let (after_submit, _) = memory(pid);
     assert!(after_submit - before_submit < 16 * MIB, "the refusal read the manifest");
     drop(procs);
-    std::fs::remove_dir_all(dir).ok();
 }
 
 /// Runs `farm ARGS` to the end; its exit code and standard error.
@@ -299,8 +297,8 @@ fn run(args: &[&str]) -> (Option<i32>, String, String) {
 
 #[test]
 fn the_command_line_refuses_what_the_security_model_refuses() {
-    let dir = std::env::temp_dir().join(format!("farm-procs-sec-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).expect("temp dir");
+    let tmp = tempfile::Builder::new().prefix("farm-procs-sec-").tempdir().expect("temp dir");
+    let dir = tmp.path();
     let state = dir.join("state");
     let mut procs = Procs(Vec::new());
     let url = start_coordinator(&mut procs, &state);
@@ -353,13 +351,12 @@ fn the_command_line_refuses_what_the_security_model_refuses() {
         assert!(!log.contains(t.trim().rsplit('.').next().unwrap()), "a {role} secret was logged");
     }
     assert!(!log.contains(secret), "a secret was logged");
-    std::fs::remove_dir_all(dir).ok();
 }
 
 #[test]
 fn status_prints_json_for_scripts_and_redraws_in_place_with_watch() {
-    let dir = std::env::temp_dir().join(format!("farm-procs-status-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).expect("temp dir");
+    let tmp = tempfile::Builder::new().prefix("farm-procs-status-").tempdir().expect("temp dir");
+    let dir = tmp.path();
     let state = dir.join("state");
     let mut procs = Procs(Vec::new());
     let url = start_coordinator(&mut procs, &state);
@@ -388,5 +385,4 @@ fn status_prints_json_for_scripts_and_redraws_in_place_with_watch() {
         run(&["status", "--watch", "0", "--coordinator", &url, "--token-file", &client]);
     assert_eq!(code, Some(2), "{err}");
     drop(procs);
-    std::fs::remove_dir_all(dir).ok();
 }

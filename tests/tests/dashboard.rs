@@ -14,8 +14,9 @@ use serde_json::json;
 use std::process::{Child, Command, Stdio};
 use std::time::{Duration, Instant};
 
-/// chromedriver, killed when dropped.
-struct Driver(Child);
+/// chromedriver, killed when dropped, and Chromium's profile folder,
+/// removed once it has stopped.
+struct Driver(Child, tempfile::TempDir);
 
 impl Drop for Driver {
     fn drop(&mut self) {
@@ -44,8 +45,9 @@ async fn browser() -> Option<(Driver, Client)> {
         .stderr(Stdio::null())
         .spawn()
         .expect("start chromedriver");
-    let driver = Driver(child);
-    let profile = std::env::temp_dir().join(format!("farm-chromium-{}", std::process::id()));
+    let profile = tempfile::Builder::new().prefix("farm-chromium-").tempdir().expect("temp dir");
+    let driver = Driver(child, profile);
+    let profile = driver.1.path();
     let mut caps = serde_json::Map::new();
     caps.insert(
         "goog:chromeOptions".into(),

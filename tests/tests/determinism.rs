@@ -26,7 +26,8 @@ fn renders_are_bit_identical_across_runs_and_thread_counts() {
     assert!(one.image.pixels.iter().any(|p| p[0] > 0.0), "image is not black");
 
     // The files written are byte-identical too (PFM carries no timing metadata).
-    let dir = std::env::temp_dir().join(format!("farm-det-{}", std::process::id()));
+    let tmp = tempfile::Builder::new().prefix("farm-det-").tempdir().expect("temp dir");
+    let dir = tmp.path();
     let (a, b) = (dir.join("a.pfm"), dir.join("b.pfm"));
     write_image(&a, &one.image, &ImageMetadata::default()).expect("write");
     write_image(&b, &again.image, &ImageMetadata::default()).expect("write");
@@ -39,8 +40,8 @@ fn renders_are_bit_identical_across_runs_and_thread_counts() {
 /// them over the crop, which gives other, equally good, samples).
 #[test]
 fn a_crop_is_bit_identical_to_the_same_pixels_of_the_full_render() {
-    let dir = std::env::temp_dir().join(format!("farm-crop-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
+    let tmp = tempfile::Builder::new().prefix("farm-crop-").tempdir().unwrap();
+    let dir = tmp.path();
     for sampler in ["halton", "sobol", "random", "stratified", "02sequence", "maxmindist"] {
         // A small film, a wide filter, a crop across tile edges.
         let scene = farm_tests::small_example(150, 100, sampler).replace(

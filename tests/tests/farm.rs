@@ -255,8 +255,8 @@ async fn an_oversized_message_is_refused_and_the_coordinator_lives_on() {
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn an_oversize_film_is_refused_and_the_coordinator_lives_on() {
     let cluster = TestCluster::start(1, Duration::from_millis(500)).await;
-    let dir = std::env::temp_dir().join(format!("farm-oversize-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).expect("temp dir");
+    let tmp = tempfile::Builder::new().prefix("farm-oversize-").tempdir().expect("temp dir");
+    let dir = tmp.path();
     let big = dir.join("big.pbrt");
     let film = "Film \"image\" \"integer xresolution\" 100000 \"integer yresolution\" 100000";
     std::fs::write(&big, format!("{film}\nWorldBegin\nShape \"sphere\"\nWorldEnd\n")).unwrap();
@@ -339,8 +339,8 @@ async fn a_large_image_arrives_in_chunks_intact() {
         Shape "sphere" "float radius" 1
         WorldEnd
     "#;
-    let dir = std::env::temp_dir().join(format!("farm-large-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).expect("dir");
+    let tmp = tempfile::Builder::new().prefix("farm-large-").tempdir().expect("dir");
+    let dir = tmp.path();
     let path = dir.join("large.pbrt");
     std::fs::write(&path, source).expect("write");
     let embedded =

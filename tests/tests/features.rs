@@ -21,8 +21,8 @@ const GLASS_AND_PLANE: &str = "Material \"glass\"\nShape \"sphere\" \"float radi
 /// Parses `source` and builds it; returns the analysis and whether the
 /// built texture set needs differentials.
 fn analyse(name: &str, source: &str) -> (Features, bool) {
-    let dir = std::env::temp_dir().join(format!("farm-features-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).expect("temp dir");
+    let tmp = tempfile::Builder::new().prefix("farm-features-").tempdir().expect("temp dir");
+    let dir = tmp.path();
     let path = dir.join(format!("{name}.pbrt"));
     std::fs::write(&path, source).expect("write");
     let (desc, _) = farm_scene::parse_file(&path).expect("parses");

@@ -13,16 +13,16 @@ use std::path::{Path, PathBuf};
 /// The project's example scene, small, with `sampler` and without the
 /// floor's texture (whose filtering depends on the job's sample count);
 /// the filter stays the 2-pixel Gaussian, so samples reach 25 pixels.
-fn scene(sampler: &str) -> PathBuf {
+/// The scene's folder goes when the returned guard is dropped.
+fn scene(sampler: &str) -> (tempfile::TempDir, PathBuf) {
     let text = farm_tests::small_example(120, 80, sampler).replace(
         "Material \"matte\" \"texture Kd\" \"checks\"",
         "Material \"matte\" \"rgb Kd\" [ 0.5 0.5 0.5 ]",
     );
-    let dir = std::env::temp_dir().join(format!("farm-passes-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    let path = dir.join(format!("{sampler}.pbrt"));
+    let dir = tempfile::Builder::new().prefix("farm-passes-").tempdir().unwrap();
+    let path = dir.path().join(format!("{sampler}.pbrt"));
     std::fs::write(&path, text).unwrap();
-    path
+    (dir, path)
 }
 
 fn render(
@@ -69,7 +69,7 @@ fn four_passes_give_the_one_shot_image_within_the_float_bound() {
     for (sampler, spp, reached) in
         [("halton", 11, &[4, 6, 8, 11][..]), ("sobol", 16, &[4, 6, 8, 11, 16][..])]
     {
-        let path = scene(sampler);
+        let (_dir, path) = scene(sampler);
         // A target of 0 is never reached: every pass renders.
         let passes = render(&path, spp, Some(0.0), None);
         let once = render(&path, spp, None, None);
@@ -101,7 +101,7 @@ fn four_passes_give_the_one_shot_image_within_the_float_bound() {
 #[test]
 fn a_sampler_with_state_renders_its_first_pass_as_a_one_shot_render() {
     for sampler in ["stratified", "random", "02sequence", "maxmindist"] {
-        let path = scene(sampler);
+        let (_dir, path) = scene(sampler);
         // Any estimate meets this target: the render stops after pass 1.
         let first = render(&path, 32, Some(f64::MAX), None);
         assert_eq!((first.spp, first.stopped), (4, Some(PassStop::TargetReached)), "{sampler}");
@@ -129,7 +129,7 @@ fn a_sampler_with_state_renders_its_first_pass_as_a_one_shot_render() {
 
 #[test]
 fn a_time_limit_stops_after_the_pass_that_ends_past_it() {
-    let path = scene("halton");
+    let (_dir, path) = scene("halton");
     let r = render(&path, 64, None, Some(0.0));
     assert_eq!((r.spp, r.stopped, r.passes.len()), (4, Some(PassStop::TimeLimit), 1));
     let r = render(&path, 64, None, Some(1e9));
@@ -141,7 +141,7 @@ fn a_time_limit_stops_after_the_pass_that_ends_past_it() {
 #[tokio::test(flavor = "multi_thread", worker_threads = 4)]
 async fn passes_on_two_workers_match_the_embedded_passes_bit_for_bit() {
     use farm_cli::client::{self, Remote, RemoteOptions};
-    let path = scene("halton");
+    let (_dir, path) = scene("halton");
     let embedded = render(&path, 16, Some(0.0), None);
     let cluster =
         farm_tests::cluster::TestCluster::start(2, std::time::Duration::from_millis(500)).await;

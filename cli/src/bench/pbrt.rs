@@ -37,6 +37,9 @@ fn run_pbrt(pbrt: &Path, scene: &Path, threads: usize, dir: &Path) -> Result<Pbr
         cmd.args(["--nthreads", &threads.to_string()]);
     }
     cmd.arg("--outfile").arg(dir.join("image.exr")).arg(scene);
+    // Its glog files into the folder that goes after the run, not one more
+    // set in the temporary directory per run.
+    cmd.arg("--logdir").arg(dir);
     if let Some(parent) = scene.parent().filter(|p| !p.as_os_str().is_empty()) {
         cmd.current_dir(parent);
     }
@@ -106,12 +109,13 @@ mod tests {
     #[test]
     fn pbrts_cpu_is_the_childs_and_it_runs_in_the_scenes_folder() {
         // Both stand-ins check that they are called as farm calls pbrt-v3:
-        // threads, an output file, the scene, from the scene's folder. One
-        // then burns CPU, the other sleeps; the CPU measured must tell them
-        // apart (this process's own CPU, shared with other tests running
-        // at the same time, cannot).
+        // threads, an output file, the scene, a folder for its logs, from
+        // the scene's folder. One then burns CPU, the other sleeps; the CPU
+        // measured must tell them apart (this process's own CPU, shared
+        // with other tests running at the same time, cannot).
         let check = "[ \"$1 $2 $3\" = \"--nthreads 2 --outfile\" ] || exit 5\n\
-                     [ \"$5\" = \"$(pwd)/scene.pbrt\" ] || exit 6\n";
+                     [ \"$5\" = \"$(pwd)/scene.pbrt\" ] || exit 6\n\
+                     [ \"$6\" = \"--logdir\" ] && [ -d \"$7\" ] || exit 7\n";
         let (busy, dir) =
             fake_pbrt("busy", &format!("{check}i=0; while [ $i -lt 300000 ]; do i=$((i+1)); done"));
         let (idle, idle_dir) = fake_pbrt("idle", &format!("{check}sleep 0.3"));

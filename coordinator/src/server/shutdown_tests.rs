@@ -94,8 +94,8 @@ async fn watch_a_job_ended_by_a_shutdown(
 async fn a_shutdown_waits_for_a_film_being_ended() {
     let seen = watch_a_job_ended_by_a_shutdown(None, None).await;
     assert_eq!(seen, (vec!["image".to_string()], 0), "without a state directory");
-    let dir = std::env::temp_dir().join(format!("farm-shutdown-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
+    let tmp = tempfile::Builder::new().prefix("farm-shutdown-").tempdir().unwrap();
+    let dir = tmp.path().to_path_buf();
     let seen = watch_a_job_ended_by_a_shutdown(Some(dir.clone()), None).await;
     assert_eq!(seen, (vec!["image".to_string()], 0), "with a state directory");
     // The next start finds it done: nothing to resume.
@@ -103,7 +103,6 @@ async fn a_shutdown_waits_for_a_film_being_ended() {
     let resumed = state.expect("the state reopens").jobs;
     assert_eq!(resumed.len(), 1, "the job is kept");
     assert!(resumed[0].ending.is_some(), "as ended, not to be resumed");
-    let _ = std::fs::remove_dir_all(&dir);
 }
 
 /// A stop while a pass's estimate is worked out neither waits for it nor

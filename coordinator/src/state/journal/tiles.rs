@@ -201,24 +201,23 @@ mod tests {
         TileLogs::open(Some(dir.to_path_buf())).unwrap()
     }
 
-    /// An empty directory of this test's own.
-    fn scratch(name: &str) -> PathBuf {
-        let d = std::env::temp_dir().join(format!("farm-tile-log-{name}-{}", std::process::id()));
-        let _ = std::fs::remove_dir_all(&d);
-        d
+    /// An empty directory of this test's own, removed when dropped.
+    fn scratch(name: &str) -> tempfile::TempDir {
+        tempfile::Builder::new().prefix(&format!("farm-tile-log-{name}-")).tempdir().unwrap()
     }
 
     #[test]
     fn tiles_read_back_by_key_with_the_last_of_a_key_kept() {
-        let dir = scratch("kept");
-        let mut l = logs(&dir);
+        let tmp = scratch("kept");
+        let dir = tmp.path();
+        let mut l = logs(dir);
         l.append(7, 3, b"three");
         l.append(7, 1, b"one");
         l.append(8, 1, b"other job");
         l.append(7, 3, b"three again");
         l.flush();
         drop(l);
-        let l = logs(&dir);
+        let l = logs(dir);
         let t = l.read(7);
         assert_eq!(t.keys().copied().collect::<Vec<_>>(), [1, 3]);
         assert_eq!(t[&3], b"three again");
@@ -228,8 +227,9 @@ mod tests {
 
     #[test]
     fn a_torn_or_corrupt_tail_is_cut_and_later_records_still_read() {
-        let dir = scratch("torn");
-        let mut l = logs(&dir);
+        let tmp = scratch("torn");
+        let dir = tmp.path();
+        let mut l = logs(dir);
         l.append(1, 0, &[5; 100]);
         l.append(1, 1, &[6; 100]);
         l.flush();
@@ -238,7 +238,7 @@ mod tests {
         let full = std::fs::read(&path).unwrap();
         // Died halfway through the second record.
         std::fs::write(&path, &full[..full.len() - 50]).unwrap();
-        let mut l = logs(&dir);
+        let mut l = logs(dir);
         assert_eq!(l.read(1).keys().copied().collect::<Vec<_>>(), [0]);
         l.append(1, 2, &[7; 10]);
         l.flush();
@@ -260,8 +260,9 @@ mod tests {
 
     #[test]
     fn ended_jobs_lose_their_logs_and_strays_are_swept() {
-        let dir = scratch("swept");
-        let mut l = logs(&dir);
+        let tmp = scratch("swept");
+        let dir = tmp.path();
+        let mut l = logs(dir);
         for job in [1, 2, 3] {
             l.append(job, 0, b"x");
         }
