@@ -8,7 +8,7 @@ use crate::bxdf::{Bsdf, BsdfSample, BxDFType, TransportMode};
 use crate::interaction::SurfaceInteraction;
 use crate::sampler::Sampler;
 use crate::world::World;
-use farm_common::geometry::RayDifferential;
+use farm_common::geometry::{RayDifferential, Vec2};
 pub use farm_common::stats::RayStats;
 use farm_common::Spectrum;
 
@@ -68,7 +68,15 @@ impl Whitted {
 
         // One sample of each light, with a shadow ray.
         for light in &scene.lights {
-            let u = sampler.get_2d();
+            // pbrt-v3 draws the pair for every light; a delta light ignores
+            // it, so it is passed over without being computed where the
+            // sampler allows (as for the specular pairs below).
+            let u = if light.reads_sample() {
+                sampler.get_2d()
+            } else {
+                sampler.skip_2d();
+                Vec2::ZERO
+            };
             let Some(ls) = light.sample_li(&si.it, u) else { continue };
             if ls.li.is_black() || ls.pdf == 0.0 {
                 continue;

@@ -85,6 +85,13 @@ impl Light {
         }
     }
 
+    /// Whether [`Light::sample_li`] reads its sample: lights at a point or
+    /// from one direction have one way to reach a point and ignore it.
+    #[inline]
+    pub fn reads_sample(&self) -> bool {
+        matches!(self, Light::Area(_) | Light::Infinite(_))
+    }
+
     /// Radiance along a ray that escapes the scene (pbrt-v3 `Le`).
     #[inline]
     pub fn le(&self, ray: &Ray) -> Spectrum {
