@@ -70,5 +70,4 @@ fn a_crop_is_bit_identical_to_the_same_pixels_of_the_full_render() {
             }
         }
     }
-    std::fs::remove_dir_all(&dir).ok();
 }
