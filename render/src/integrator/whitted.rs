@@ -71,7 +71,7 @@ impl Whitted {
             // pbrt-v3 draws the pair for every light; a delta light ignores
             // it, so it is passed over without being computed where the
             // sampler allows (as for the specular pairs below).
-            let u = if light.reads_sample() {
+            let u = if light.reads_sample() || !sampler.passes_over_cheaply() {
                 sampler.get_2d()
             } else {
                 sampler.skip_2d();
@@ -183,7 +183,7 @@ impl Whitted {
 
 /// Samples the specular lobes of one kind (reflection or transmission);
 /// `None` when they send no light back along the sampled direction.
-#[inline]
+#[inline(always)]
 fn sample_specular(
     si: &SurfaceInteraction,
     bsdf: &Bsdf,
@@ -191,7 +191,7 @@ fn sample_specular(
     kind: BxDFType,
 ) -> Option<BsdfSample> {
     let flags = kind | BxDFType::SPECULAR;
-    if bsdf.num_components(flags) == 0 {
+    if sampler.passes_over_cheaply() && bsdf.num_components(flags) == 0 {
         // pbrt-v3 draws the pair and `Sample_f` ignores it: pass over it
         // without computing it where the sampler allows (Halton, Sobol').
         sampler.skip_2d();

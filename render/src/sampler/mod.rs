@@ -250,6 +250,14 @@ impl Sampler {
         }
     }
 
+    /// Whether [`Sampler::skip_2d`] saves work: Halton and Sobol' compute a
+    /// dimension from the sample index alone; the others must still draw
+    /// it, so a caller need not look for pairs it could pass over.
+    #[inline]
+    pub(crate) fn passes_over_cheaply(&self) -> bool {
+        matches!(self, Sampler::Halton(_) | Sampler::Sobol(_))
+    }
+
     /// Passes over the next 2D value.
     #[inline]
     pub(crate) fn skip_2d(&mut self) {
