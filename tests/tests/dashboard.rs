@@ -15,7 +15,8 @@ use std::process::{Child, Command, Stdio};
 use std::time::{Duration, Instant};
 
 /// chromedriver, killed when dropped, and Chromium's profile folder,
-/// removed once it has stopped.
+/// removed after that (Chromium itself is closed by the test's session;
+/// a test that panics first may leave it writing there briefly).
 struct Driver(Child, tempfile::TempDir);
 
 impl Drop for Driver {

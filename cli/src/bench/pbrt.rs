@@ -109,13 +109,13 @@ mod tests {
     #[test]
     fn pbrts_cpu_is_the_childs_and_it_runs_in_the_scenes_folder() {
         // Both stand-ins check that they are called as farm calls pbrt-v3:
-        // threads, an output file, the scene, a folder for its logs, from
-        // the scene's folder. One then burns CPU, the other sleeps; the CPU
-        // measured must tell them apart (this process's own CPU, shared
-        // with other tests running at the same time, cannot).
+        // threads, an output file, the scene, the output's folder for its
+        // logs, from the scene's folder. One then burns CPU, the other
+        // sleeps; the CPU measured must tell them apart (this process's own
+        // CPU, shared with other tests running at the same time, cannot).
         let check = "[ \"$1 $2 $3\" = \"--nthreads 2 --outfile\" ] || exit 5\n\
                      [ \"$5\" = \"$(pwd)/scene.pbrt\" ] || exit 6\n\
-                     [ \"$6\" = \"--logdir\" ] && [ -d \"$7\" ] || exit 7\n";
+                     [ \"$6 $4\" = \"--logdir $7/image.exr\" ] || exit 7\n";
         let (busy, dir) =
             fake_pbrt("busy", &format!("{check}i=0; while [ $i -lt 300000 ]; do i=$((i+1)); done"));
         let (idle, idle_dir) = fake_pbrt("idle", &format!("{check}sleep 0.3"));

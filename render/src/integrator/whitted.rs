@@ -17,9 +17,19 @@ use farm_common::Spectrum;
 pub struct Whitted {
     /// `maxdepth`: specular bounces stop when `depth + 1` reaches it.
     pub max_depth: u32,
+    /// Pass over the sample pairs nothing reads (a delta light's, the
+    /// specular lobes' of a surface without them) where the sampler can
+    /// (Halton, Sobol'); off only to measure or test that it changes no bit.
+    pub pass_over: bool,
 }
 
 impl Whitted {
+    /// Whether to look for pairs to pass over with `sampler`.
+    #[inline(always)]
+    fn passes_over(&self, sampler: &Sampler) -> bool {
+        self.pass_over && sampler.passes_over_cheaply()
+    }
+
     /// Radiance arriving along `ray`.
     pub fn li(
         &self,
@@ -71,7 +81,7 @@ impl Whitted {
             // pbrt-v3 draws the pair for every light; a delta light ignores
             // it, so it is passed over without being computed where the
             // sampler allows (as for the specular pairs below).
-            let u = if light.reads_sample() || !sampler.passes_over_cheaply() {
+            let u = if light.reads_sample() || !self.passes_over(sampler) {
                 sampler.get_2d()
             } else {
                 sampler.skip_2d();
@@ -110,7 +120,9 @@ impl Whitted {
         stats: &mut RayStats,
     ) -> Spectrum {
         let wo = si.wo;
-        let Some(s) = sample_specular(si, bsdf, sampler, BxDFType::REFLECTION) else {
+        let Some(s) =
+            sample_specular(si, bsdf, sampler, BxDFType::REFLECTION, self.passes_over(sampler))
+        else {
             return Spectrum::ZERO;
         };
         let ns = si.shading.n;
@@ -146,7 +158,9 @@ impl Whitted {
         stats: &mut RayStats,
     ) -> Spectrum {
         let wo = si.wo;
-        let Some(s) = sample_specular(si, bsdf, sampler, BxDFType::TRANSMISSION) else {
+        let Some(s) =
+            sample_specular(si, bsdf, sampler, BxDFType::TRANSMISSION, self.passes_over(sampler))
+        else {
             return Spectrum::ZERO;
         };
         let mut ns = si.shading.n;
@@ -189,9 +203,10 @@ fn sample_specular(
     bsdf: &Bsdf,
     sampler: &mut Sampler,
     kind: BxDFType,
+    pass_over: bool,
 ) -> Option<BsdfSample> {
     let flags = kind | BxDFType::SPECULAR;
-    if sampler.passes_over_cheaply() && bsdf.num_components(flags) == 0 {
+    if pass_over && bsdf.num_components(flags) == 0 {
         // pbrt-v3 draws the pair and `Sample_f` ignores it: pass over it
         // without computing it where the sampler allows (Halton, Sobol').
         sampler.skip_2d();
