@@ -31,6 +31,7 @@ impl SamplerKind {
     /// Whether a pixel's samples depend only on the pixel and their index
     /// (Halton and Sobol'), so a render can stop and later continue each
     /// pixel's sequence; the others draw from a generator per tile.
+    #[inline]
     pub fn continues_sequence(self) -> bool {
         matches!(self, SamplerKind::Halton | SamplerKind::Sobol)
     }

@@ -24,7 +24,6 @@ use farm_proto::MAX_MESSAGE_SIZE;
 use std::future::Future;
 use std::time::Duration;
 use tokio::net::TcpListener;
-
 use tonic::service::interceptor::InterceptedService;
 use tonic::transport::server::TcpIncoming;
 use tonic::transport::{Identity, ServerTlsConfig};

@@ -27,7 +27,7 @@ impl Whitted {
     /// Whether to look for pairs to pass over with `sampler`.
     #[inline(always)]
     fn passes_over(&self, sampler: &Sampler) -> bool {
-        self.pass_over && sampler.passes_over_cheaply()
+        self.pass_over && sampler.is_stateless()
     }
 
     /// Radiance arriving along `ray`.

@@ -120,7 +120,10 @@ impl Sampler {
     }
 
     /// Whether a pixel's samples depend on the pixel alone (Halton and
-    /// Sobol'), not on the pixels drawn before it in the tile.
+    /// Sobol'), not on the pixels drawn before it in the tile. Such a
+    /// sampler computes a dimension from the sample index alone, so
+    /// [`Sampler::skip_2d`] saves work; the others must still draw it.
+    #[inline]
     pub fn is_stateless(&self) -> bool {
         self.kind().continues_sequence()
     }
@@ -248,14 +251,6 @@ impl Sampler {
                 self.get_1d();
             }
         }
-    }
-
-    /// Whether [`Sampler::skip_2d`] saves work: Halton and Sobol' compute a
-    /// dimension from the sample index alone; the others must still draw
-    /// it, so a caller need not look for pairs it could pass over.
-    #[inline]
-    pub(crate) fn passes_over_cheaply(&self) -> bool {
-        matches!(self, Sampler::Halton(_) | Sampler::Sobol(_))
     }
 
     /// Passes over the next 2D value.
