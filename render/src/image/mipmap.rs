@@ -277,70 +277,62 @@ impl<T: Texel> MipMap<T> {
         let il = math::floor(lod);
         let d = lod - il;
         let il = il as usize;
-        self.ewa(il, st, dst0, dst1) * (1.0 - d) + self.ewa(il + 1, st, dst0, dst1) * d
+        self.ewa(il, st, dst0, dst1, true) * (1.0 - d) + self.ewa(il + 1, st, dst0, dst1, true) * d
     }
 
-    fn ewa(&self, level: usize, st: Vec2, dst0: Vec2, dst1: Vec2) -> T {
+    /// pbrt-v3's `EWA` on one level; `spans` visits each row's span only
+    /// (the same bits; off in tests, to compare with the whole box).
+    fn ewa(&self, level: usize, st: Vec2, dst0: Vec2, dst1: Vec2, spans: bool) -> T {
         if level >= self.levels() {
             return self.texel(self.levels() - 1, 0, 0);
         }
         let l = &self.pyramid[level];
         let (fw, fh) = (l.w as f32, l.h as f32);
-        let st = Vec2::new(st.x * fw - 0.5, st.y * fh - 0.5);
-        let dst0 = Vec2::new(dst0.x * fw, dst0.y * fh);
-        let dst1 = Vec2::new(dst1.x * fw, dst1.y * fh);
-        // Ellipse coefficients.
-        let mut a = dst0.y * dst0.y + dst1.y * dst1.y + 1.0;
-        let mut b = -2.0 * (dst0.x * dst0.y + dst1.x * dst1.y);
-        let mut c = dst0.x * dst0.x + dst1.x * dst1.x + 1.0;
-        let inv_f = 1.0 / (a * c - b * b * 0.25);
-        a *= inv_f;
-        b *= inv_f;
-        c *= inv_f;
-        // Bounding box of the ellipse.
-        let det = -b * b + 4.0 * a * c;
-        let inv_det = 1.0 / det;
-        let u_sqrt = (det * c).sqrt();
-        let v_sqrt = (a * det).sqrt();
-        let s0 = math::ceil(st.x - 2.0 * inv_det * u_sqrt) as i64;
-        let s1 = math::floor(st.x + 2.0 * inv_det * u_sqrt) as i64;
-        let t0 = math::ceil(st.y - 2.0 * inv_det * v_sqrt) as i64;
-        let t1 = math::floor(st.y + 2.0 * inv_det * v_sqrt) as i64;
-        let e = Ellipse { st, a, b, c, s: (s0, s1), t: (t0, t1) };
+        let e = Ellipse::new(
+            Vec2::new(st.x * fw - 0.5, st.y * fh - 0.5),
+            Vec2::new(dst0.x * fw, dst0.y * fh),
+            Vec2::new(dst1.x * fw, dst1.y * fh),
+        );
         // A repeating power-of-two level (every level of a repeating map)
         // wraps a column with a mask alone; the others as `texel` does.
         let (sum, sum_wts) = if self.wrap == WrapMode::Repeat && l.w.is_power_of_two() {
             let mask = l.w - 1;
-            self.ewa_sum(l, &e, |is| Some(is as usize & mask))
+            self.ewa_sum(l, &e, spans, |is| Some(is as usize & mask))
         } else {
-            self.ewa_sum(l, &e, |is| wrap_index(is, l.w, self.wrap))
+            self.ewa_sum(l, &e, spans, |is| wrap_index(is, l.w, self.wrap))
         };
         sum * (1.0 / sum_wts)
     }
 
     /// The weighted sum of the texels inside `e` and the sum of their
     /// weights (pbrt-v3's loop, in its order), `column` wrapping a column.
+    /// Each row of a wide box visits only its [`Spans`]: the rest of the
+    /// box fails the test `r2 < 1` anyway, so the sums keep their bits.
     #[inline(always)]
     fn ewa_sum(
         &self,
         l: &Level<T>,
         e: &Ellipse,
+        spans: bool,
         column: impl Fn(i64) -> Option<usize>,
     ) -> (T, f32) {
         let (st, a, b, c) = (e.st, e.a, e.b, e.c);
         let mut sum = T::default();
         let mut sum_wts = 0.0f32;
-        // `is as f32`, counted in floats where that is exact (integers below
-        // 2^24): the conversion from an integer writes only the low lane of
-        // its register, so it waited for the last iteration's use of that
-        // register, which made the texel and weight loads one chain.
-        let counted = e.s.0.unsigned_abs() < 1 << 24 && e.s.1.unsigned_abs() < 1 << 24;
+        let counted = e.counted();
+        let spans = if spans { Spans::new(e) } else { None };
         for it in e.t.0..=e.t.1 {
             let tt = it as f32 - st.y;
             // The row's wrapped index, once a row (`texel`'s, inlined).
             let row = wrap_index(it, l.h, self.wrap);
-            let mut is_f = e.s.0 as f32;
-            for is in e.s.0..=e.s.1 {
+            let (s0, s1) = spans.as_ref().map_or(e.s, |sp| sp.row(tt));
+            // `is as f32`, counted in floats where that is exact (integers
+            // below 2^24): the conversion from an integer writes only the
+            // low lane of its register, so it waited for the last
+            // iteration's use of that register, which made the texel and
+            // weight loads one chain.
+            let mut is_f = s0 as f32;
+            for is in s0..=s1 {
                 let ss = if counted { is_f } else { is as f32 } - st.x;
                 is_f += 1.0;
                 let r2 = a * ss * ss + b * ss * tt + c * tt * tt;
@@ -374,6 +366,141 @@ struct Ellipse {
     c: f32,
     s: (i64, i64),
     t: (i64, i64),
+}
+
+/// Largest distance from the centre, in texels, for which the row spans
+/// are used: the rounding of `ss` stays below 2^-4 texel.
+const SPAN_LIMIT: f64 = (1u64 << 20) as f64;
+
+/// Narrowest box, in texels, whose rows are cut to their spans: in a
+/// narrower one the span costs more than the texels it passes over.
+const SPAN_MIN_WIDTH: i64 = 8;
+
+impl Ellipse {
+    /// pbrt-v3's ellipse for a footprint `dst0`, `dst1` around `st`, all in
+    /// one level's texel units, and its texel box.
+    #[inline]
+    fn new(st: Vec2, dst0: Vec2, dst1: Vec2) -> Ellipse {
+        // Ellipse coefficients.
+        let mut a = dst0.y * dst0.y + dst1.y * dst1.y + 1.0;
+        let mut b = -2.0 * (dst0.x * dst0.y + dst1.x * dst1.y);
+        let mut c = dst0.x * dst0.x + dst1.x * dst1.x + 1.0;
+        let inv_f = 1.0 / (a * c - b * b * 0.25);
+        a *= inv_f;
+        b *= inv_f;
+        c *= inv_f;
+        // Bounding box of the ellipse.
+        let det = -b * b + 4.0 * a * c;
+        let inv_det = 1.0 / det;
+        let u_sqrt = (det * c).sqrt();
+        let v_sqrt = (a * det).sqrt();
+        let s0 = math::ceil(st.x - 2.0 * inv_det * u_sqrt) as i64;
+        let s1 = math::floor(st.x + 2.0 * inv_det * u_sqrt) as i64;
+        let t0 = math::ceil(st.y - 2.0 * inv_det * v_sqrt) as i64;
+        let t1 = math::floor(st.y + 2.0 * inv_det * v_sqrt) as i64;
+        Ellipse { st, a, b, c, s: (s0, s1), t: (t0, t1) }
+    }
+
+    /// Whether every column index of the box is exact as an `f32`.
+    #[inline]
+    fn counted(&self) -> bool {
+        self.s.0.unsigned_abs() < 1 << 24 && self.s.1.unsigned_abs() < 1 << 24
+    }
+}
+
+/// The columns of each row of an [`Ellipse`]'s box that can pass the
+/// loop's test `r2 < 1`: the real chord of the ellipse through the row,
+/// widened by a margin on each side.
+struct Spans {
+    /// The chord's centre is `x − slope·tt`.
+    x: f64,
+    slope: f64,
+    /// The chord's half-width is `√(k0 − k1·tt²)·inv_2a + margin`.
+    k0: f64,
+    k1: f64,
+    inv_2a: f64,
+    margin: f64,
+    /// The box's columns.
+    lo: f64,
+    hi: f64,
+}
+
+impl Spans {
+    /// The spans of `e`, or `None` where they would not pay (a narrow box)
+    /// or cannot be trusted (a degenerate ellipse, a box far from its
+    /// centre or past 2^24).
+    ///
+    /// Why the texels outside a span fail the loop's `r2 < 1`: the loop
+    /// evaluates `q(ss) = a·ss² + b·tt·ss + c·tt²` in `f32` at `ss`, the
+    /// rounded `is − st.x` (off by at most 2^-24·W, W the box's largest
+    /// |ss|, so below 2^-4 here), with an error of at most
+    /// `E = 8·2^-24·(a·W² + |b|·W·H + c·H²)` (H the largest |tt|; the two
+    /// products and two sums behind each term need about 4·2^-24). The
+    /// exact `q − 1` is at least `a·d²` at a distance `d` outside the real
+    /// chord (its product form `a(ss − r₀)(ss − r₁)`, or `a(ss − centre)²`
+    /// plus something positive when the row misses the ellipse). The
+    /// margin is `1/8 + √(E/a)`, and the chord is computed in `f64` with an
+    /// allowance where its discriminant `b²tt² − 4a(c·tt² − 1)` nearly
+    /// cancels, so a texel outside has `d > √(E/a)`: `q > 1 + E`, and the
+    /// computed value is above 1.
+    #[inline]
+    fn new(e: &Ellipse) -> Option<Spans> {
+        let (a, b, c) = (e.a as f64, e.b as f64, e.c as f64);
+        let (x, y) = (e.st.x as f64, e.st.y as f64);
+        let (lo, hi) = (e.s.0 as f64, e.s.1 as f64);
+        let w = (lo - x).abs().max((hi - x).abs());
+        let h = (e.t.0 as f64 - y).abs().max((e.t.1 as f64 - y).abs());
+        let sound = e.s.1.saturating_sub(e.s.0) >= SPAN_MIN_WIDTH
+            && e.counted()
+            && a > 0.0
+            && (a + b.abs() + c).is_finite()
+            && w <= SPAN_LIMIT
+            && h <= SPAN_LIMIT;
+        if !sound {
+            return None;
+        }
+        let err = 8.0 * f64::from(f32::EPSILON) * 0.5 * (a * w * w + b.abs() * w * h + c * h * h);
+        let (b2, ac4) = (b * b, 4.0 * a * c);
+        let inv_2a = 0.5 / a;
+        Some(Spans {
+            x,
+            slope: b * inv_2a,
+            k0: 4.0 * a * (1.0 + 1e-12),
+            k1: (ac4 - b2) - 1e-12 * (ac4 + b2),
+            inv_2a,
+            margin: 0.125 + (err / a).sqrt(),
+            lo,
+            hi,
+        })
+    }
+
+    /// The columns of the row at `tt` to visit (none when the first
+    /// exceeds the second).
+    #[inline(always)]
+    fn row(&self, tt: f32) -> (i64, i64) {
+        let tt = tt as f64;
+        let centre = self.x - self.slope * tt;
+        let half = (self.k0 - self.k1 * tt * tt).max(0.0).sqrt() * self.inv_2a + self.margin;
+        (
+            ceil_i64((centre - half).clamp(self.lo, self.hi + 1.0)),
+            floor_i64((centre + half).clamp(self.lo - 1.0, self.hi)),
+        )
+    }
+}
+
+/// `x.ceil() as i64` for |x| < 2^52, without a call to the C library's
+/// `ceil` (the baseline x86-64 target has no rounding instruction).
+#[inline]
+fn ceil_i64(x: f64) -> i64 {
+    let t = x as i64;
+    t + i64::from((t as f64) < x)
+}
+
+/// `x.floor() as i64` for |x| < 2^52.
+#[inline]
+fn floor_i64(x: f64) -> i64 {
+    let t = x as i64;
+    t - i64::from((t as f64) > x)
 }
 
 #[cfg(test)]
@@ -418,6 +545,56 @@ mod tests {
                 }
             }
         }
+    }
+
+    /// Visiting each row's span gives the same bits as the whole box, for
+    /// every wrap mode, square and oblong maps, footprints from a twentieth
+    /// of a texel to 64 texels with anisotropy up to 16, centres near and
+    /// far from the origin (past 2^20 texels, where the spans are not
+    /// used); and the spans are used in over a tenth of the lookups.
+    #[test]
+    fn row_spans_sum_the_same_bits_as_the_whole_box() {
+        let mut rng = Rng::new(23);
+        let mut spanned = 0;
+        let mut lookups = 0;
+        for (w, h, wrap) in [
+            (64usize, 64usize, WrapMode::Repeat),
+            (48, 20, WrapMode::Clamp),
+            (32, 128, WrapMode::Black),
+        ] {
+            let texels = (0..w * h)
+                .map(|_| Spectrum::new(rng.uniform_f32(), rng.uniform_f32(), rng.uniform_f32()))
+                .collect();
+            let m = MipMap::new(w, h, texels, false, 8.0, wrap);
+            for i in 0..4000 {
+                let far = [1.0, 100.0, 1e4, 1e5][i % 4];
+                let st = Vec2::new(rng.uniform_f32() - 0.5, rng.uniform_f32() - 0.5) * far;
+                let level = (rng.uniform_u32() % m.levels() as u32) as usize;
+                let side = m.pyramid[level].w.max(m.pyramid[level].h) as f32;
+                // The minor axis in this level's texels, then in [0, 1]².
+                let minor = 0.05 * math::powf(80f32, rng.uniform_f32()) / side;
+                let aniso = math::powf(16f32, rng.uniform_f32());
+                let phi = 2.0 * std::f32::consts::PI * rng.uniform_f32();
+                let (s, c) = math::sin_cos(phi);
+                let d0 = Vec2::new(c, s) * minor * aniso;
+                let d1 = Vec2::new(-s, c) * minor;
+                let whole = m.ewa(level, st, d0, d1, false);
+                let spans = m.ewa(level, st, d0, d1, true);
+                for k in 0..3 {
+                    assert_eq!(whole[k].to_bits(), spans[k].to_bits(), "{st:?} {d0:?} {d1:?}");
+                }
+                let l = &m.pyramid[level];
+                let (fw, fh) = (l.w as f32, l.h as f32);
+                let e = Ellipse::new(
+                    Vec2::new(st.x * fw - 0.5, st.y * fh - 0.5),
+                    Vec2::new(d0.x * fw, d0.y * fh),
+                    Vec2::new(d1.x * fw, d1.y * fh),
+                );
+                spanned += usize::from(Spans::new(&e).is_some());
+                lookups += 1;
+            }
+        }
+        assert!(spanned * 10 > lookups, "{spanned} of {lookups} lookups used spans");
     }
 
     #[test]
