@@ -43,6 +43,35 @@ impl Sphere {
     }
 }
 
+/// Half of f64's machine epsilon: the relative error of one rounding.
+const EPS64: f64 = f64::EPSILON * 0.5;
+
+/// How far the double-precision roots `−proj ± half` of [`Sphere::roots`]
+/// can be from values that the interval roots contain, for a ray whose
+/// object-space origin has squared length `o2` and direction squared
+/// length `a`, a sphere of radius `r`, and `root = √(4a·x)` as computed
+/// (`x = r² − |v|²`, `v` the centre-to-line vector). To spare the
+/// divisions, it returns that slack times a positive `scale`, and `scale`.
+///
+/// The interval path's coefficients contain the exact `a`, `b`, `c` of the
+/// same `f32` ray, and its square root contains `root`. So one of its roots
+/// contains `q/a = −b/2a ∓ root/2a`, and the other `c/q`, which differs
+/// from `−b/2a ± root/2a` by `(root² − (b² − 4ac))/4aq`, with
+/// `|q| ≥ max(root, |b|)/2`. Rounding analysis of the `f64` steps, with
+/// generous constants: `proj` is within `6ε·o/√a` of `−b/2a` (and
+/// `o/√a ≤ 1 + o²/a`); `root²` is within `4a·27ε·(o² + r²)` of
+/// `b² − 4ac`; the roots' own roundings add a few ε of `|proj| + half`.
+/// The bound doubles each. Where `root` and `proj` are both zero the scale
+/// is zero, and nothing is rejected early.
+#[inline]
+fn scaled_root_slack(o2: f64, a: f64, r: f64, root: f64, proj: f64, half: f64) -> (f64, f64) {
+    let e_x = 64.0 * EPS64 * (o2 + r * r);
+    let d = root.max(2.0 * a * proj.abs());
+    let scale = a * d;
+    let slack = 16.0 * EPS64 * ((a + o2) * d + (proj.abs() + half) * scale) + 4.0 * e_x * a;
+    (slack, scale)
+}
+
 impl Sphere {
     /// pbrt-v3's constructor: z clips ordered and clamped to the radius, φ in degrees.
     pub fn new(
@@ -102,15 +131,21 @@ impl Sphere {
         if discrim.is_nan() || discrim < 0.0 {
             return None;
         }
-        // The roots in double precision. The interval roots below contain the
-        // roots of this same quadratic, so when these lie clearly outside the
-        // ray's range, so do those: a shadow ray that stops short of a
-        // spherical light is rejected here.
+        // The roots in double precision. The interval roots below contain
+        // values within a slack of these (`scaled_root_slack`), so when
+        // these lie outside the ray's range by more, so do those: a shadow
+        // ray that stops short of a spherical light, and a ray leaving the
+        // sphere it was spawned on, are rejected here. The slack is worked
+        // out only for roots outside the range at all.
         let root = discrim.sqrt();
         let half = root / (2.0 * a64);
-        let slack = 1e-5 * (proj.abs() + half);
-        if -proj - half > ray.t_max as f64 + slack || -proj + half < -slack {
-            return None;
+        let (near, far) = (-proj - half, -proj + half);
+        let t_max = ray.t_max as f64;
+        if near > t_max || far < 0.0 {
+            let (slack, scale) = scaled_root_slack(od.length_squared(), a64, r64, root, proj, half);
+            if (near - t_max * (1.0 + 4.0 * EPS64)) * scale > slack || far * scale < -slack {
+                return None;
+            }
         }
         let (o, d) = efloat_coords(&ray, oe, de);
         let (a, b, c) = self.coefficients(&o, &d);
@@ -289,50 +324,85 @@ mod tests {
 
     /// The early outs never change the answer: shadow rays to points
     /// sampled on the sphere (which stop just short of it), rays from inside,
-    /// rays that end just past or just before the surface, and grazing rays.
+    /// rays that end just past or just before the surface, grazing rays, and
+    /// rays spawned from a hit on the sphere, out of it or into it (which
+    /// the tight `scaled_root_slack` rejects before the interval path); for
+    /// spheres near and far from the origin, scaled and rotated.
     #[test]
     fn early_outs_agree_with_the_interval_path() {
         let mut rng = Rng::new(5);
-        let t = Transform::new(Mat4::from_translation(Vec3::new(3.0, -2.0, 7.0)));
-        let s = Sphere::new(Placement::new(&t, false), 1.5, -1.5, 1.5, 360.0);
-        let centre = Vec3::new(3.0, -2.0, 7.0);
-        let mut u2 = || Vec2::new(rng.uniform_f32(), rng.uniform_f32());
-        let (mut hits, mut misses) = (0, 0);
-        for i in 0..20_000 {
-            let from = centre + uniform_sample_sphere(u2()) * (0.5 + 6.0 * u2().x);
-            let reference =
-                Interaction { p: from, p_error: Vec3::splat(1e-6), n: Vec3::Z, time: 0.0 };
-            let ray = match i % 3 {
-                // A shadow ray to a point the light sampled.
-                0 => match s.sample_from(&reference, u2()) {
-                    Some((it, _)) => reference.spawn_ray_to(&it),
-                    None => continue,
-                },
-                // A segment ending near the surface, either side.
-                1 => {
-                    let target = centre + uniform_sample_sphere(u2()) * 1.5;
-                    let mut r = Ray::new(from, target - from, 0.0);
-                    r.t_max = 1.0 + (u2().x - 0.5) * 2e-4;
-                    r
+        let placements = [
+            (Mat4::from_translation(Vec3::new(3.0, -2.0, 7.0)), 1.5),
+            (
+                Mat4::from_translation(Vec3::new(-40.0, 9.0, 300.0))
+                    * Mat4::from_rotation_y(0.7)
+                    * Mat4::from_scale(Vec3::new(0.5, 2.0, 3.0)),
+                1.0,
+            ),
+            (Mat4::from_translation(Vec3::new(2e4, 1e3, -5e4)), 200.0),
+            (Mat4::from_scale(Vec3::splat(1e-3)), 0.01),
+        ];
+        for (m, radius) in placements {
+            let t = Transform::new(m);
+            let s = Sphere::new(Placement::new(&t, false), radius, -radius, radius, 360.0);
+            let centre = t.point(Vec3::ZERO);
+            let size = s.bounds().diagonal().length();
+            let mut u2 = || Vec2::new(rng.uniform_f32(), rng.uniform_f32());
+            let (mut hits, mut misses, mut spawned) = (0, 0, 0);
+            for i in 0..24_000 {
+                let from = centre + uniform_sample_sphere(u2()) * size * (0.3 + 2.0 * u2().x);
+                let reference =
+                    Interaction { p: from, p_error: Vec3::splat(1e-6), n: Vec3::Z, time: 0.0 };
+                let ray = match i % 6 {
+                    // A shadow ray to a point the light sampled.
+                    0 => match s.sample_from(&reference, u2()) {
+                        Some((it, _)) => reference.spawn_ray_to(&it),
+                        None => continue,
+                    },
+                    // A segment ending near the surface, either side, up to
+                    // a few of its rounding errors away.
+                    1 => {
+                        let target = s.sample_area(u2()).0.p;
+                        let mut r = Ray::new(from, target - from, 0.0);
+                        r.t_max = 1.0 + (u2().x - 0.5) * math::powf(10f32, -3.0 - 4.0 * u2().x);
+                        r
+                    }
+                    // From a point on the surface, not moved off it: one
+                    // root within rounding of zero.
+                    5 => Ray::new(s.sample_area(u2()).0.p, uniform_sample_sphere(u2()), 0.0),
+                    // A grazing ray: aimed at a point just off the silhouette.
+                    2 => {
+                        let w = (centre - from).normalize();
+                        let (a, _) = coordinate_system(w);
+                        let edge = s.bounds().diagonal().abs().min_element() * 0.5;
+                        let target = centre + a * edge * (1.0 + (u2().x - 0.5) * 1e-5);
+                        Ray::new(from, target - from, 0.0)
+                    }
+                    // Spawned from a hit, leaving the sphere or entering it.
+                    _ => {
+                        let Some((_, si)) =
+                            s.intersect(&Ray::new(from, s.sample_area(u2()).0.p - from, 0.0))
+                        else {
+                            continue;
+                        };
+                        spawned += 1;
+                        let n = si.it.n;
+                        let w = uniform_sample_sphere(u2());
+                        let out = if w.dot(n) >= 0.0 { w } else { -w };
+                        si.spawn_ray(if i % 6 == 3 { out } else { -out })
+                    }
+                };
+                let want = interval_only(&s, &ray);
+                assert_eq!(s.intersect_p(&ray), want, "ray {i}: {ray:?}");
+                assert_eq!(s.intersect(&ray).is_some(), want, "ray {i}");
+                if want {
+                    hits += 1;
+                } else {
+                    misses += 1;
                 }
-                // A grazing ray: aimed at a tangent point.
-                _ => {
-                    let w = (centre - from).normalize();
-                    let (a, _) = coordinate_system(w);
-                    let target = centre + a * 1.5 * (1.0 + (u2().x - 0.5) * 1e-5);
-                    Ray::new(from, target - from, 0.0)
-                }
-            };
-            let want = interval_only(&s, &ray);
-            assert_eq!(s.intersect_p(&ray), want, "ray {i}: {ray:?}");
-            assert_eq!(s.intersect(&ray).is_some(), want, "ray {i}");
-            if want {
-                hits += 1;
-            } else {
-                misses += 1;
             }
+            assert!(hits > 1000 && misses > 1000 && spawned > 4000, "{hits} {misses} {spawned}");
         }
-        assert!(hits > 1000 && misses > 1000, "{hits} hits, {misses} misses");
     }
 
     /// Hits agree with a double-precision solution far from the origin and for huge radii.
