@@ -179,6 +179,31 @@ mod shape {
             }
         });
     }
+
+    /// Rays spawned off the sphere's own hits, half leaving it (a mirror's
+    /// reflection, which misses it) and half entering it (glass), tested
+    /// against it again, as every specular bounce does.
+    #[divan::bench]
+    fn sphere_spawned(bencher: Bencher) {
+        let (s, rays) = sphere();
+        let mut rng = Rng::new(3);
+        let spawned: Vec<Ray> = rays
+            .iter()
+            .filter_map(|r| s.intersect(r))
+            .enumerate()
+            .map(|(i, (_, si))| {
+                let w = uniform_sample_sphere(u2(&mut rng));
+                let out = if w.dot(si.it.n) >= 0.0 { w } else { -w };
+                si.spawn_ray(if i % 2 == 0 { out } else { -out })
+            })
+            .collect();
+        check_mixed("spawned", &spawned, |r| s.intersect_p(r));
+        bencher.counter(ItemsCount::new(spawned.len())).bench_local(|| {
+            for r in black_box(&spawned) {
+                black_box(black_box(&s).intersect(r));
+            }
+        });
+    }
 }
 
 /// Ray–box slab tests.
