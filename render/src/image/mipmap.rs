@@ -2,6 +2,7 @@
 //! Lanczos weights, then box-filtered into a pyramid; lookups are trilinear
 //! or EWA (elliptically weighted average with a Gaussian weight table).
 
+use super::ewa::{Ellipse, Spans};
 use farm_common::geometry::Vec2;
 use farm_common::math;
 use farm_common::Spectrum;
@@ -287,12 +288,7 @@ impl<T: Texel> MipMap<T> {
             return self.texel(self.levels() - 1, 0, 0);
         }
         let l = &self.pyramid[level];
-        let (fw, fh) = (l.w as f32, l.h as f32);
-        let e = Ellipse::new(
-            Vec2::new(st.x * fw - 0.5, st.y * fh - 0.5),
-            Vec2::new(dst0.x * fw, dst0.y * fh),
-            Vec2::new(dst1.x * fw, dst1.y * fh),
-        );
+        let e = self.ellipse(level, st, dst0, dst1);
         // A repeating power-of-two level (every level of a repeating map)
         // wraps a column with a mask alone; the others as `texel` does.
         let (sum, sum_wts) = if self.wrap == WrapMode::Repeat && l.w.is_power_of_two() {
@@ -302,6 +298,18 @@ impl<T: Texel> MipMap<T> {
             self.ewa_sum(l, &e, spans, |is| wrap_index(is, l.w, self.wrap))
         };
         sum * (1.0 / sum_wts)
+    }
+
+    /// The ellipse of a footprint on level `level`, in its texel units.
+    #[inline]
+    fn ellipse(&self, level: usize, st: Vec2, dst0: Vec2, dst1: Vec2) -> Ellipse {
+        let l = &self.pyramid[level];
+        let (fw, fh) = (l.w as f32, l.h as f32);
+        Ellipse::new(
+            Vec2::new(st.x * fw - 0.5, st.y * fh - 0.5),
+            Vec2::new(dst0.x * fw, dst0.y * fh),
+            Vec2::new(dst1.x * fw, dst1.y * fh),
+        )
     }
 
     /// The weighted sum of the texels inside `e` and the sum of their
@@ -354,153 +362,6 @@ impl<T: Texel> MipMap<T> {
         }
         (sum, sum_wts)
     }
-}
-
-/// An EWA lookup's ellipse on one level: centre `st` in texel coordinates,
-/// inside where `a·ss² + b·ss·tt + c·tt² < 1`, within the texel box
-/// `s` × `t`.
-struct Ellipse {
-    st: Vec2,
-    a: f32,
-    b: f32,
-    c: f32,
-    s: (i64, i64),
-    t: (i64, i64),
-}
-
-/// Largest distance from the centre, in texels, for which the row spans
-/// are used: the rounding of `ss` stays below 2^-4 texel.
-const SPAN_LIMIT: f64 = (1u64 << 20) as f64;
-
-/// Narrowest box, in texels, whose rows are cut to their spans: in a
-/// narrower one the span costs more than the texels it passes over.
-const SPAN_MIN_WIDTH: i64 = 8;
-
-impl Ellipse {
-    /// pbrt-v3's ellipse for a footprint `dst0`, `dst1` around `st`, all in
-    /// one level's texel units, and its texel box.
-    #[inline]
-    fn new(st: Vec2, dst0: Vec2, dst1: Vec2) -> Ellipse {
-        // Ellipse coefficients.
-        let mut a = dst0.y * dst0.y + dst1.y * dst1.y + 1.0;
-        let mut b = -2.0 * (dst0.x * dst0.y + dst1.x * dst1.y);
-        let mut c = dst0.x * dst0.x + dst1.x * dst1.x + 1.0;
-        let inv_f = 1.0 / (a * c - b * b * 0.25);
-        a *= inv_f;
-        b *= inv_f;
-        c *= inv_f;
-        // Bounding box of the ellipse.
-        let det = -b * b + 4.0 * a * c;
-        let inv_det = 1.0 / det;
-        let u_sqrt = (det * c).sqrt();
-        let v_sqrt = (a * det).sqrt();
-        let s0 = math::ceil(st.x - 2.0 * inv_det * u_sqrt) as i64;
-        let s1 = math::floor(st.x + 2.0 * inv_det * u_sqrt) as i64;
-        let t0 = math::ceil(st.y - 2.0 * inv_det * v_sqrt) as i64;
-        let t1 = math::floor(st.y + 2.0 * inv_det * v_sqrt) as i64;
-        Ellipse { st, a, b, c, s: (s0, s1), t: (t0, t1) }
-    }
-
-    /// Whether every column index of the box is exact as an `f32`.
-    #[inline]
-    fn counted(&self) -> bool {
-        self.s.0.unsigned_abs() < 1 << 24 && self.s.1.unsigned_abs() < 1 << 24
-    }
-}
-
-/// The columns of each row of an [`Ellipse`]'s box that can pass the
-/// loop's test `r2 < 1`: the real chord of the ellipse through the row,
-/// widened by a margin on each side.
-struct Spans {
-    /// The chord's centre is `x − slope·tt`.
-    x: f64,
-    slope: f64,
-    /// The chord's half-width is `√(k0 − k1·tt²)·inv_2a + margin`.
-    k0: f64,
-    k1: f64,
-    inv_2a: f64,
-    margin: f64,
-    /// The box's columns.
-    lo: f64,
-    hi: f64,
-}
-
-impl Spans {
-    /// The spans of `e`, or `None` where they would not pay (a narrow box)
-    /// or cannot be trusted (a degenerate ellipse, a box far from its
-    /// centre or past 2^24).
-    ///
-    /// Why the texels outside a span fail the loop's `r2 < 1`: the loop
-    /// evaluates `q(ss) = a·ss² + b·tt·ss + c·tt²` in `f32` at `ss`, the
-    /// rounded `is − st.x` (off by at most 2^-24·W, W the box's largest
-    /// |ss|, so below 2^-4 here), with an error of at most
-    /// `E = 8·2^-24·(a·W² + |b|·W·H + c·H²)` (H the largest |tt|; the two
-    /// products and two sums behind each term need about 4·2^-24). The
-    /// exact `q − 1` is at least `a·d²` at a distance `d` outside the real
-    /// chord (its product form `a(ss − r₀)(ss − r₁)`, or `a(ss − centre)²`
-    /// plus something positive when the row misses the ellipse). The
-    /// margin is `1/8 + √(E/a)`, and the chord is computed in `f64` with an
-    /// allowance where its discriminant `b²tt² − 4a(c·tt² − 1)` nearly
-    /// cancels, so a texel outside has `d > √(E/a)`: `q > 1 + E`, and the
-    /// computed value is above 1.
-    #[inline]
-    fn new(e: &Ellipse) -> Option<Spans> {
-        let (a, b, c) = (e.a as f64, e.b as f64, e.c as f64);
-        let (x, y) = (e.st.x as f64, e.st.y as f64);
-        let (lo, hi) = (e.s.0 as f64, e.s.1 as f64);
-        let w = (lo - x).abs().max((hi - x).abs());
-        let h = (e.t.0 as f64 - y).abs().max((e.t.1 as f64 - y).abs());
-        let sound = e.s.1.saturating_sub(e.s.0) >= SPAN_MIN_WIDTH
-            && e.counted()
-            && a > 0.0
-            && (a + b.abs() + c).is_finite()
-            && w <= SPAN_LIMIT
-            && h <= SPAN_LIMIT;
-        if !sound {
-            return None;
-        }
-        let err = 8.0 * f64::from(f32::EPSILON) * 0.5 * (a * w * w + b.abs() * w * h + c * h * h);
-        let (b2, ac4) = (b * b, 4.0 * a * c);
-        let inv_2a = 0.5 / a;
-        Some(Spans {
-            x,
-            slope: b * inv_2a,
-            k0: 4.0 * a * (1.0 + 1e-12),
-            k1: (ac4 - b2) - 1e-12 * (ac4 + b2),
-            inv_2a,
-            margin: 0.125 + (err / a).sqrt(),
-            lo,
-            hi,
-        })
-    }
-
-    /// The columns of the row at `tt` to visit (none when the first
-    /// exceeds the second).
-    #[inline(always)]
-    fn row(&self, tt: f32) -> (i64, i64) {
-        let tt = tt as f64;
-        let centre = self.x - self.slope * tt;
-        let half = (self.k0 - self.k1 * tt * tt).max(0.0).sqrt() * self.inv_2a + self.margin;
-        (
-            ceil_i64((centre - half).clamp(self.lo, self.hi + 1.0)),
-            floor_i64((centre + half).clamp(self.lo - 1.0, self.hi)),
-        )
-    }
-}
-
-/// `x.ceil() as i64` for |x| < 2^52, without a call to the C library's
-/// `ceil` (the baseline x86-64 target has no rounding instruction).
-#[inline]
-fn ceil_i64(x: f64) -> i64 {
-    let t = x as i64;
-    t + i64::from((t as f64) < x)
-}
-
-/// `x.floor() as i64` for |x| < 2^52.
-#[inline]
-fn floor_i64(x: f64) -> i64 {
-    let t = x as i64;
-    t - i64::from((t as f64) > x)
 }
 
 #[cfg(test)]
@@ -583,14 +444,7 @@ mod tests {
                 for k in 0..3 {
                     assert_eq!(whole[k].to_bits(), spans[k].to_bits(), "{st:?} {d0:?} {d1:?}");
                 }
-                let l = &m.pyramid[level];
-                let (fw, fh) = (l.w as f32, l.h as f32);
-                let e = Ellipse::new(
-                    Vec2::new(st.x * fw - 0.5, st.y * fh - 0.5),
-                    Vec2::new(d0.x * fw, d0.y * fh),
-                    Vec2::new(d1.x * fw, d1.y * fh),
-                );
-                spanned += usize::from(Spans::new(&e).is_some());
+                spanned += usize::from(Spans::new(&m.ellipse(level, st, d0, d1)).is_some());
                 lookups += 1;
             }
         }

@@ -3,6 +3,7 @@
 
 use farm_common::math;
 use std::sync::LazyLock;
+mod ewa;
 mod mipmap;
 
 pub use farm_common::image::{read_image, ImageError, RgbImage};
