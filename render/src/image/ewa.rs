@@ -21,8 +21,9 @@ pub(super) struct Ellipse {
 /// are used: the rounding of `ss` stays below 2^-4 texel.
 const SPAN_LIMIT: f64 = (1u64 << 20) as f64;
 
-/// Narrowest box, in texels, whose rows are cut to their spans: in a
-/// narrower one the span costs more than the texels it passes over.
+/// How far past its first column a box's last must be (9 columns) for its
+/// rows to be cut to their spans: in a narrower box the span costs more
+/// than the texels it passes over.
 const SPAN_MIN_WIDTH: i64 = 8;
 
 impl Ellipse {
