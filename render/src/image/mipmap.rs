@@ -411,8 +411,11 @@ mod tests {
     /// Visiting each row's span gives the same bits as the whole box, for
     /// every wrap mode, square and oblong maps, footprints from a twentieth
     /// of a texel to 64 texels with anisotropy up to 16, centres near and
-    /// far from the origin (past 2^20 texels, where the spans are not
-    /// used); and the spans are used in over a tenth of the lookups.
+    /// far from the origin (up to 6.4e6 texels); then thin footprints with
+    /// anisotropy up to 1000 at every angle, whose coefficients nearly
+    /// satisfy `b² = 4ac`; and the spans are used in over a tenth of the
+    /// lookups. (The margins for a rounded `ss` and boxes past 2^20 texels
+    /// wide are not reached: `ss` is exact in every case here.)
     #[test]
     fn row_spans_sum_the_same_bits_as_the_whole_box() {
         let mut rng = Rng::new(23);
@@ -432,9 +435,13 @@ mod tests {
                 let st = Vec2::new(rng.uniform_f32() - 0.5, rng.uniform_f32() - 0.5) * far;
                 let level = (rng.uniform_u32() % m.levels() as u32) as usize;
                 let side = m.pyramid[level].w.max(m.pyramid[level].h) as f32;
-                // The minor axis in this level's texels, then in [0, 1]².
-                let minor = 0.05 * math::powf(80f32, rng.uniform_f32()) / side;
-                let aniso = math::powf(16f32, rng.uniform_f32());
+                // The minor axis in this level's texels, then in [0, 1]²;
+                // every fifth footprint thin (major axis up to 160 texels).
+                let thin = i % 5 == 4;
+                let (small, range, most) =
+                    if thin { (0.02, 8.0, 1000.0) } else { (0.05, 80.0, 16.0) };
+                let minor = small * math::powf(range, rng.uniform_f32()) / side;
+                let aniso = math::powf(most, rng.uniform_f32());
                 let phi = 2.0 * std::f32::consts::PI * rng.uniform_f32();
                 let (s, c) = math::sin_cos(phi);
                 let d0 = Vec2::new(c, s) * minor * aniso;

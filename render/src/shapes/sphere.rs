@@ -57,12 +57,19 @@ const EPS64: f64 = f64::EPSILON * 0.5;
 /// same `f32` ray, and its square root contains `root`. So one of its roots
 /// contains `q/a = −b/2a ∓ root/2a`, and the other `c/q`, which differs
 /// from `−b/2a ± root/2a` by `(root² − (b² − 4ac))/4aq`, with
-/// `|q| ≥ max(root, |b|)/2`. Rounding analysis of the `f64` steps, with
-/// generous constants: `proj` is within `6ε·o/√a` of `−b/2a` (and
-/// `o/√a ≤ 1 + o²/a`); `root²` is within `4a·27ε·(o² + r²)` of
-/// `b² − 4ac`; the roots' own roundings add a few ε of `|proj| + half`.
-/// The bound doubles each. Where `root` and `proj` are both zero the scale
-/// is zero, and nothing is rejected early.
+/// `|q| ≥ max(root, |b|)/2`. That holds when the `f32` `b` that picks the
+/// sign has the exact one's sign. Otherwise `|b|` is within a few
+/// roundings of zero. Then `|q|` is still at least `a` times a rejected
+/// root's distance from the range, which the first term covers.
+///
+/// Rounding analysis of the `f64` steps, with generous constants: `−proj`
+/// is within `6ε·o/√a` of `−b/2a` (and `o/√a ≤ 1 + o²/a`); `root²` is
+/// within `4a·27ε·(o² + r²)` of `b² − 4ac`; the roots' own roundings add a
+/// few ε of `|proj| + half`. The bound doubles each. `2a·|proj|` stands
+/// for `|b|`. Where `d·o` cancels so that they differ, the first term
+/// exceeds the roots' size, and nothing is rejected. Where `root` and
+/// `proj` are both zero, the scale is zero, and nothing is rejected
+/// either.
 #[inline]
 fn scaled_root_slack(o2: f64, a: f64, r: f64, root: f64, proj: f64, half: f64) -> (f64, f64) {
     let e_x = 64.0 * EPS64 * (o2 + r * r);
