@@ -194,9 +194,38 @@ pub fn ceil<T: Real>(x: T) -> T {
     x.round_up()
 }
 
+/// `floor(x) as i64`, saturating (NaN is 0), without the round trip
+/// through a float.
+#[inline(always)]
+pub fn floor_i64(x: f64) -> i64 {
+    let t = x as i64;
+    t.saturating_sub(i64::from((t as f64) > x))
+}
+
+/// `ceil(x) as i64`, saturating (NaN is 0), without the round trip
+/// through a float.
+#[inline(always)]
+pub fn ceil_i64(x: f64) -> i64 {
+    let t = x as i64;
+    t.saturating_add(i64::from((t as f64) < x))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn integer_floor_and_ceil_are_floor_and_ceil_converted() {
+        let mut values = vec![0.0, -0.0, 0.5, -0.5, 1.0, -1.0, 2.5, -2.5, 1e15 + 0.5, -1e15 - 0.5];
+        values.extend([2f64.powi(52), 2f64.powi(53) + 2.0, 2f64.powi(63), -(2f64.powi(63)), 1e300]);
+        values.extend([f64::INFINITY, f64::NEG_INFINITY, f64::NAN, f64::MIN_POSITIVE, -1e-300]);
+        let mut rng = crate::rng::Rng::new(9);
+        values.extend((0..1000).map(|_| (rng.uniform_f32() as f64 - 0.5) * 1e6));
+        for x in values {
+            assert_eq!(floor_i64(x), floor(x) as i64, "{x}");
+            assert_eq!(ceil_i64(x), ceil(x) as i64, "{x}");
+        }
+    }
 
     #[test]
     #[allow(clippy::disallowed_methods)]

@@ -132,23 +132,8 @@ impl Spans {
         let centre = self.x - self.slope * tt;
         let half = (self.k0 - self.k1 * tt * tt).max(0.0).sqrt() * self.inv_2a + self.margin;
         (
-            ceil_i64((centre - half).clamp(self.lo, self.hi + 1.0)),
-            floor_i64((centre + half).clamp(self.lo - 1.0, self.hi)),
+            math::ceil_i64((centre - half).clamp(self.lo, self.hi + 1.0)),
+            math::floor_i64((centre + half).clamp(self.lo - 1.0, self.hi)),
         )
     }
-}
-
-/// `x.ceil() as i64` for |x| < 2^52, without a call to the C library's
-/// `ceil` (the baseline x86-64 target has no rounding instruction).
-#[inline]
-fn ceil_i64(x: f64) -> i64 {
-    let t = x as i64;
-    t + i64::from((t as f64) < x)
-}
-
-/// `x.floor() as i64` for |x| < 2^52.
-#[inline]
-fn floor_i64(x: f64) -> i64 {
-    let t = x as i64;
-    t - i64::from((t as f64) > x)
 }
