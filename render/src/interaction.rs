@@ -60,6 +60,15 @@ pub struct Shading {
     pub dndv: Vec3,
 }
 
+impl Shading {
+    /// Whether this frame is `si`'s true geometry, bit for bit.
+    fn is_geometry_of(&self, si: &SurfaceInteraction) -> bool {
+        let bits = |v: [Vec3; 5]| v.map(|x| x.to_array().map(f32::to_bits));
+        bits([self.n, self.dpdu, self.dpdv, self.dndu, self.dndv])
+            == bits([si.it.n, si.dpdu, si.dpdv, si.dndu, si.dndv])
+    }
+}
+
 /// A ray–surface hit (pbrt-v3 `SurfaceInteraction`), in render space.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct SurfaceInteraction {
@@ -194,6 +203,38 @@ impl SurfaceInteraction {
         }
     }
 
+    /// [`SurfaceInteraction::transform`] of a hit whose shading geometry is
+    /// still its true geometry, as [`SurfaceInteraction::new`] makes it (a
+    /// quadric's or a curve's, in object space): the shading vectors come
+    /// out as the true ones do, bit for bit, so they are copied rather than
+    /// transformed again (`face_forward` of a normal against itself keeps
+    /// it).
+    #[inline]
+    pub fn transform_fresh(&self, t: &Transform) -> SurfaceInteraction {
+        debug_assert!(self.shading.is_geometry_of(self), "shading moved off the true geometry");
+        let (p, p_error) = t.point_with_error_in(self.it.p, self.it.p_error);
+        let n = t.normal(self.it.n).normalize();
+        let (dpdu, dpdv) = (t.vector(self.dpdu), t.vector(self.dpdv));
+        let (dndu, dndv) = (t.normal(self.dndu), t.normal(self.dndv));
+        SurfaceInteraction {
+            it: Interaction { p, p_error, n, time: self.it.time },
+            wo: t.vector(self.wo).normalize(),
+            uv: self.uv,
+            dpdu,
+            dpdv,
+            dndu,
+            dndv,
+            shading: Shading { n, dpdu, dpdv, dndu, dndv },
+            dpdx: t.vector(self.dpdx),
+            dpdy: t.vector(self.dpdy),
+            dudx: self.dudx,
+            dvdx: self.dvdx,
+            dudy: self.dudy,
+            dvdy: self.dvdy,
+            prim: self.prim,
+        }
+    }
+
     /// Estimates the screen-space derivatives of p, u and v from the ray's
     /// differentials (pbrt-v3 `ComputeDifferentials`).
     pub fn compute_differentials(&mut self, ray: &RayDifferential) {
@@ -269,4 +310,57 @@ fn solve_2x2(a: [[f32; 2]; 2], b: [f32; 2]) -> Option<(f32, f32)> {
         return None;
     }
     Some((x0, x1))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use farm_common::geometry::Mat4;
+    use farm_common::rng::Rng;
+
+    fn float(rng: &mut Rng, scale: f32) -> f32 {
+        (rng.uniform_f32() - 0.5) * scale
+    }
+
+    fn vector(rng: &mut Rng, scale: f32) -> Vec3 {
+        Vec3::new(float(rng, scale), float(rng, scale), float(rng, scale))
+    }
+
+    /// `transform_fresh` is `transform` for a hit as `new` makes it, bit for
+    /// bit: over random frames (zero and signed-zero derivatives among
+    /// them, flipped normals) and transforms that rotate, shear, scale
+    /// unevenly, mirror and move far away.
+    #[test]
+    fn a_fresh_hit_moves_as_transform_moves_it() {
+        let rng = &mut Rng::new(7);
+        let zeroish = |v: Vec3, k: usize| match k % 5 {
+            0 => Vec3::ZERO,
+            1 => Vec3::new(-0.0, 0.0, -0.0),
+            _ => v,
+        };
+        for i in 0..2000 {
+            let si = SurfaceInteraction::new(
+                vector(rng, 20.0),
+                vector(rng, 1e-5).abs(),
+                Vec2::new(float(rng, 1.0), float(rng, 1.0)),
+                vector(rng, 2.0),
+                vector(rng, 3.0),
+                vector(rng, 3.0),
+                zeroish(vector(rng, 1.0), i),
+                zeroish(vector(rng, 1.0), i / 5),
+                0.25,
+                i % 2 == 0,
+            );
+            let mut m = Mat4::from_cols_array(&std::array::from_fn(|_| float(rng, 4.0)));
+            let far = if i % 3 == 0 { 1e6 } else { 10.0 };
+            m.w_axis = vector(rng, far).extend(1.0);
+            (m.x_axis.w, m.y_axis.w, m.z_axis.w) = (0.0, 0.0, 0.0);
+            let t = Transform::new(m);
+            assert_eq!(
+                format!("{:?}", si.transform_fresh(&t)),
+                format!("{:?}", si.transform(&t)),
+                "case {i}"
+            );
+        }
+    }
 }

@@ -290,10 +290,11 @@ impl Placement {
         self.render_from_object.bounds(b)
     }
 
-    /// A hit built in object space, moved to render space.
+    /// A hit built in object space (by [`SurfaceInteraction::new`], its
+    /// shading geometry untouched), moved to render space.
     #[inline]
     pub(crate) fn render_hit(&self, si: &SurfaceInteraction) -> SurfaceInteraction {
-        si.transform(&self.render_from_object)
+        si.transform_fresh(&self.render_from_object)
     }
 }
 

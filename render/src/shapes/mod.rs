@@ -108,6 +108,9 @@ impl Shape {
     /// left alone on a miss.
     #[inline(always)]
     pub fn intersect_into(&self, ray: &Ray, si: &mut SurfaceInteraction) -> Option<f32> {
+        if let Shape::Sphere(s) = self {
+            return s.intersect_into(ray, si);
+        }
         let (t, hit) = self.intersect(ray)?;
         *si = hit;
         Some(t)

@@ -194,6 +194,15 @@ impl Sphere {
 
     /// Nearest hit, in render space.
     pub fn intersect(&self, r: &Ray) -> Option<(f32, SurfaceInteraction)> {
+        let mut si = SurfaceInteraction::default();
+        let t = self.intersect_into(r, &mut si)?;
+        Some((t, si))
+    }
+
+    /// [`Sphere::intersect`] with the interaction written to `out`, which
+    /// a miss leaves alone: the render-space interaction is built in place
+    /// rather than returned by value and copied.
+    pub fn intersect_into(&self, r: &Ray, out: &mut SurfaceInteraction) -> Option<f32> {
         let (ray, t, (p, phi)) = self.hit(r)?;
         let u = phi / self.phi_max;
         let theta = math::acos((p.z / self.radius).clamp(-1.0, 1.0));
@@ -221,7 +230,8 @@ impl Sphere {
             r.time,
             self.placement.flip(),
         );
-        Some((t.v, self.placement.render_hit(&si)))
+        *out = self.placement.render_hit(&si);
+        Some(t.v)
     }
 
     /// Whether the ray hits.
