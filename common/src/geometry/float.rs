@@ -13,10 +13,13 @@ pub const fn gamma(n: i32) -> f32 {
     (n as f32 * MACHINE_EPSILON) / (1.0 - n as f32 * MACHINE_EPSILON)
 }
 
-/// The smallest f32 greater than `v` (infinity stays infinity).
+/// The smallest f32 greater than `v` (infinity stays infinity, and NaN
+/// stays NaN: pbrt-v3's bit step turns some NaNs into zero or infinity).
 #[inline]
 pub fn next_float_up(v: f32) -> f32 {
-    if v == f32::INFINITY {
+    // One comparison keeps both: false for +∞ and for NaN.
+    #[allow(clippy::neg_cmp_op_on_partial_ord)]
+    if !(v < f32::INFINITY) {
         return v;
     }
     // `v + 0.0` turns −0 into +0. Then one step away from zero for a
@@ -25,10 +28,12 @@ pub fn next_float_up(v: f32) -> f32 {
     f32::from_bits(bits.wrapping_add(1u32.wrapping_sub((bits >> 31) << 1)))
 }
 
-/// The largest f32 less than `v` (negative infinity stays).
+/// The largest f32 less than `v` (negative infinity stays, and NaN stays
+/// NaN).
 #[inline]
 pub fn next_float_down(v: f32) -> f32 {
-    if v == f32::NEG_INFINITY {
+    #[allow(clippy::neg_cmp_op_on_partial_ord)]
+    if !(v > f32::NEG_INFINITY) {
         return v;
     }
     // `-(-v + 0.0)` turns +0 into −0, so zero steps to the smallest negative value.
@@ -138,6 +143,20 @@ mod tests {
         for v in values {
             assert_eq!(next_float_up(v).to_bits(), up(v).to_bits(), "up {v:e}");
             assert_eq!(next_float_down(v).to_bits(), down(v).to_bits(), "down {v:e}");
+        }
+    }
+
+    /// NaN stays NaN, whatever its sign and payload, where the bit step
+    /// alone would wrap the largest payloads round to a zero or an
+    /// infinity (as pbrt-v3's does).
+    #[test]
+    fn next_float_keeps_nan() {
+        for bits in
+            [0x7fc0_0000u32, 0xffc0_0000, 0x7fff_ffff, 0xffff_ffff, 0x7f80_0001, 0xff80_0001]
+        {
+            let v = f32::from_bits(bits);
+            assert!(next_float_up(v).is_nan(), "up {bits:#x}");
+            assert!(next_float_down(v).is_nan(), "down {bits:#x}");
         }
     }
 

@@ -27,6 +27,11 @@ impl EFloat {
             EFloat { v, low: next_float_down(v - err), high: next_float_up(v + err) }
         }
     }
+    /// A value and its interval as they are.
+    #[inline(always)]
+    pub(crate) fn from_parts(v: f32, low: f32, high: f32) -> Self {
+        EFloat { v, low, high }
+    }
     /// Upper end of the interval.
     #[inline]
     pub fn upper_bound(self) -> f32 {

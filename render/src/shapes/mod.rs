@@ -9,6 +9,7 @@ mod curve_segments;
 mod cylinder;
 mod disk;
 mod efloat;
+mod efloat3;
 mod heightfield;
 mod hyperboloid;
 mod loopsubdiv;

@@ -1,9 +1,8 @@
 //! Partial spheres (pbrt-v3 `shapes/sphere.cpp`):
 //! `Shape "sphere" "float radius" 1 "float zmin" -1 "float zmax" 1 "float phimax" 360`.
 
-use super::efloat::{
-    efloat_coords, nearest_hit, phi_of, quadratic_with_root, weingarten, EFloat, Placement,
-};
+use super::efloat::{nearest_hit, phi_of, quadratic_with_root, weingarten, EFloat, Placement};
+use super::efloat3::EFloat3;
 use crate::interaction::{Interaction, SurfaceInteraction};
 use crate::sampling::uniform_sample_sphere;
 use farm_common::geometry::{
@@ -154,19 +153,21 @@ impl Sphere {
                 return None;
             }
         }
-        let (o, d) = efloat_coords(&ray, oe, de);
-        let (a, b, c) = self.coefficients(&o, &d);
+        let (o, d) = (EFloat3::new(ray.o, oe), EFloat3::new(ray.d, de));
+        let (a, b, c) = self.coefficients(o, d);
         let (t0, t1) = quadratic_with_root(a, b, c, root);
         Some((ray, t0, t1))
     }
 
-    /// The ray–sphere quadratic `a t² + b t + c` with error bounds.
+    /// The ray–sphere quadratic `a t² + b t + c` with error bounds: pbrt-v3's
+    /// `d·d`, `2 d·o` and `o·o − r²`, with the three axes' products of each
+    /// made at once.
     #[inline]
-    fn coefficients(&self, o: &[EFloat; 3], d: &[EFloat; 3]) -> (EFloat, EFloat, EFloat) {
-        let a = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
-        let b = 2.0 * (d[0] * o[0] + d[1] * o[1] + d[2] * o[2]);
+    fn coefficients(&self, o: EFloat3, d: EFloat3) -> (EFloat, EFloat, EFloat) {
+        let a = d.mul(d).sum();
+        let b = 2.0 * d.mul(o).sum();
         let rad = EFloat::from(self.radius);
-        let c = o[0] * o[0] + o[1] * o[1] + o[2] * o[2] - rad * rad;
+        let c = o.mul(o).sum() - rad * rad;
         (a, b, c)
     }
 
@@ -326,8 +327,8 @@ mod tests {
     /// The interval path alone, without the double-precision early outs:
     /// whether it accepts a root in the ray's range.
     fn interval_only(s: &Sphere, r: &Ray) -> bool {
-        let (ray, o, d) = s.placement.efloat_ray(r);
-        let (a, b, c) = s.coefficients(&o, &d);
+        let (ray, oe, de) = s.placement.object_ray(r);
+        let (a, b, c) = s.coefficients(EFloat3::new(ray.o, oe), EFloat3::new(ray.d, de));
         let (od, dd) = (ray.o.as_dvec3(), ray.d.as_dvec3());
         let len = (od - dd * (dd.dot(od) / dd.length_squared())).length();
         let r64 = s.radius as f64;
