@@ -174,33 +174,16 @@ impl SurfaceInteraction {
 
     /// The hit moved by `t` (pbrt-v3 `Transform::operator()(SurfaceInteraction)`).
     pub fn transform(&self, t: &Transform) -> SurfaceInteraction {
-        let (p, p_error) = t.point_with_error_in(self.it.p, self.it.p_error);
-        let n = t.normal(self.it.n).normalize();
-        let mut shading = Shading {
-            n: t.normal(self.shading.n).normalize(),
+        let mut out = self.moved_geometry(t);
+        let n = t.normal(self.shading.n).normalize();
+        out.shading = Shading {
+            n: face_forward(n, out.it.n),
             dpdu: t.vector(self.shading.dpdu),
             dpdv: t.vector(self.shading.dpdv),
             dndu: t.normal(self.shading.dndu),
             dndv: t.normal(self.shading.dndv),
         };
-        shading.n = face_forward(shading.n, n);
-        SurfaceInteraction {
-            it: Interaction { p, p_error, n, time: self.it.time },
-            wo: t.vector(self.wo).normalize(),
-            uv: self.uv,
-            dpdu: t.vector(self.dpdu),
-            dpdv: t.vector(self.dpdv),
-            dndu: t.normal(self.dndu),
-            dndv: t.normal(self.dndv),
-            shading,
-            dpdx: t.vector(self.dpdx),
-            dpdy: t.vector(self.dpdy),
-            dudx: self.dudx,
-            dvdx: self.dvdx,
-            dudy: self.dudy,
-            dvdy: self.dvdy,
-            prim: self.prim,
-        }
+        out
     }
 
     /// [`SurfaceInteraction::transform`] of a hit whose shading geometry is
@@ -212,6 +195,12 @@ impl SurfaceInteraction {
     #[inline]
     pub fn transform_fresh(&self, t: &Transform) -> SurfaceInteraction {
         debug_assert!(self.shading.is_geometry_of(self), "shading moved off the true geometry");
+        self.moved_geometry(t)
+    }
+
+    /// The hit moved by `t`, with the moved true frame as its shading frame.
+    #[inline(always)]
+    fn moved_geometry(&self, t: &Transform) -> SurfaceInteraction {
         let (p, p_error) = t.point_with_error_in(self.it.p, self.it.p_error);
         let n = t.normal(self.it.n).normalize();
         let (dpdu, dpdv) = (t.vector(self.dpdu), t.vector(self.dpdv));
