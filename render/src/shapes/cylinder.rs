@@ -2,6 +2,7 @@
 //! `Shape "cylinder" "float radius" 1 "float zmin" -1 "float zmax" 1 "float phimax" 360`.
 
 use super::efloat::{nearest_hit, phi_of, quadratic, weingarten, EFloat, Placement};
+use super::efloat3::EFloat3;
 use crate::interaction::{Interaction, SurfaceInteraction};
 use farm_common::geometry::{gamma, Bounds3f, Ray, Vec2, Vec3};
 use farm_common::math;
@@ -57,10 +58,11 @@ impl Cylinder {
     }
 
     fn hit(&self, r: &Ray) -> Option<(Ray, EFloat, (Vec3, f32))> {
-        let (ray, o, d) = self.placement.efloat_ray(r);
-        let a = d[0] * d[0] + d[1] * d[1];
-        let b = 2.0 * (d[0] * o[0] + d[1] * o[1]);
-        let c = o[0] * o[0] + o[1] * o[1] - self.radius * self.radius;
+        let (ray, oe, de) = self.placement.object_ray(r);
+        let (o, d) = (EFloat3::new(ray.o, oe), EFloat3::new(ray.d, de));
+        let a = d.mul(d).sum_xy();
+        let b = 2.0 * d.mul(o).sum_xy();
+        let c = o.mul(o).sum_xy() - self.radius * self.radius;
         let (t0, t1) = quadratic(a, b, c)?;
         let eval = |t: f32| {
             let mut p = ray.at(t);

@@ -47,6 +47,13 @@ impl EFloat3 {
         lane(0) + lane(1) + lane(2)
     }
 
+    /// `x + y` (the z lane left out, as the cylinder's coefficients do).
+    #[inline(always)]
+    pub(crate) fn sum_xy(self) -> EFloat {
+        let lane = |l: usize| EFloat::from_parts(self.v[l], self.low[l], self.high[l]);
+        lane(0) + lane(1)
+    }
+
     /// One lane.
     #[cfg(test)]
     fn lane(&self, l: usize) -> EFloat {
@@ -254,6 +261,7 @@ mod tests {
                     assert_eq!(bits(lanes.lane(l)), bits(*s), "case {i}, lane {l}");
                 }
                 assert_eq!(bits(lanes.sum()), bits(scalar[0] + scalar[1] + scalar[2]), "case {i}");
+                assert_eq!(bits(lanes.sum_xy()), bits(scalar[0] + scalar[1]), "case {i}");
             }
         }
     }
