@@ -158,7 +158,10 @@ pub fn quadratic(a: EFloat, b: EFloat, c: EFloat) -> Option<(EFloat, EFloat)> {
 /// Roots `t0 <= t1` of `a t² + b t + c` given the discriminant `b² − 4ac`,
 /// which the caller may compute in a better-conditioned form (pbrt-v4's
 /// sphere), with pbrt-v3's error bound on its square root. A negative
-/// discriminant means no roots.
+/// discriminant means no roots, and so does a NaN one (a ray with a NaN in
+/// it): pbrt-v3 goes on to NaN roots, whose bounds fail every comparison
+/// in [`nearest_hit`], so that a cylinder, cone, paraboloid or hyperboloid
+/// reported a hit at `t` = NaN.
 #[inline]
 pub fn quadratic_with_discriminant(
     a: EFloat,
@@ -166,7 +169,8 @@ pub fn quadratic_with_discriminant(
     c: EFloat,
     discrim: f64,
 ) -> Option<(EFloat, EFloat)> {
-    if discrim < 0.0 {
+    #[allow(clippy::neg_cmp_op_on_partial_ord)]
+    if !(discrim >= 0.0) {
         return None;
     }
     Some(quadratic_with_root(a, b, c, discrim.sqrt()))
@@ -356,6 +360,39 @@ mod tests {
                 let low = next_float_down(d[0].min(d[1]).min(d[2].min(d[3])));
                 let high = next_float_up(d[0].max(d[1]).max(d[2].max(d[3])));
                 assert_eq!((q.low.to_bits(), q.high.to_bits()), (low.to_bits(), high.to_bits()));
+            }
+        }
+    }
+
+    /// A ray with a NaN in it misses every quadric that solves `quadratic`
+    /// (and the sphere), where its NaN roots' bounds would fail every
+    /// comparison of `nearest_hit` and be taken.
+    #[test]
+    fn a_nan_ray_misses_the_quadrics() {
+        use crate::shapes::{Cone, Cylinder, Hyperboloid, Paraboloid, Shape, Sphere};
+        use farm_common::geometry::Transform;
+        let pl = || Placement::new(&Transform::default(), false);
+        let shapes = [
+            Shape::Sphere(Box::new(Sphere::new(pl(), 1.0, -1.0, 1.0, 360.0))),
+            Shape::Cylinder(Box::new(Cylinder::new(pl(), 1.0, -1.0, 1.0, 360.0))),
+            Shape::Cone(Box::new(Cone::new(pl(), 1.0, 1.0, 360.0))),
+            Shape::Paraboloid(Box::new(Paraboloid::new(pl(), 1.0, 0.0, 1.0, 360.0))),
+            Shape::Hyperboloid(Box::new(
+                Hyperboloid::new(pl(), Vec3::new(1.0, 0.0, -1.0), Vec3::new(0.5, 0.5, 1.0), 360.0)
+                    .expect("a hyperboloid"),
+            )),
+        ];
+        let rays = [
+            Ray::new(Vec3::new(-5.0, 0.1, 0.2), Vec3::new(1.0, f32::NAN, 0.0), 0.0),
+            Ray::new(Vec3::new(f32::NAN, 0.1, 0.2), Vec3::X, 0.0),
+        ];
+        for (k, shape) in shapes.iter().enumerate() {
+            // The same shapes do take the ray without its NaN.
+            let clean = Ray::new(Vec3::new(-5.0, 0.1, 0.2), Vec3::X, 0.0);
+            assert!(shape.intersect(&clean).is_some(), "shape {k} is hit at all");
+            for r in &rays {
+                assert!(shape.intersect(r).is_none(), "shape {k}, {r:?}");
+                assert!(!shape.intersect_p(r), "shape {k}, {r:?}");
             }
         }
     }
