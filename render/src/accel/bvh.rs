@@ -358,9 +358,13 @@ impl Bvh {
                     stack.push(node.child[l]);
                     continue;
                 }
+                // A plain loop: `any` went through an iterator adaptor
+                // that was not inlined, a call for every leaf.
                 let start = node.child[l] as usize;
-                if (start..start + count).any(|i| f(i, ray)) {
-                    return true;
+                for i in start..start + count {
+                    if f(i, ray) {
+                        return true;
+                    }
                 }
             }
         }
