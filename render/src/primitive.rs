@@ -157,7 +157,11 @@ impl Aggregate {
     #[inline(always)]
     pub fn intersect_p(&self, ray: &Ray) -> bool {
         let tr = TriRay::new(ray);
-        self.bvh.intersect_any(ray, |i, r| self.prims[i].shape.intersect_p_prepared(r, &tr))
+        self.bvh.intersect_any(
+            ray,
+            #[inline(always)]
+            |i, r| self.prims[i].shape.intersect_p_prepared(r, &tr),
+        )
     }
 }
 
