@@ -44,57 +44,43 @@ impl EFloat3 {
     /// `x + y + z`, added in that order.
     #[inline(always)]
     pub(crate) fn sum(self) -> EFloat {
-        let lane = |l: usize| EFloat::from_parts(self.v[l], self.low[l], self.high[l]);
-        lane(0) + lane(1) + lane(2)
+        self.lane(0) + self.lane(1) + self.lane(2)
     }
 
     /// `x + y` (the z lane left out, as the cylinder's coefficients do).
     #[inline(always)]
     pub(crate) fn sum_xy(self) -> EFloat {
-        let lane = |l: usize| EFloat::from_parts(self.v[l], self.low[l], self.high[l]);
-        lane(0) + lane(1)
+        self.lane(0) + self.lane(1)
     }
 
     /// One lane.
-    #[cfg(test)]
+    #[inline(always)]
     fn lane(&self, l: usize) -> EFloat {
         EFloat::from_parts(self.v[l], self.low[l], self.high[l])
     }
 }
 
-/// The operations lane by lane, as [`EFloat`] writes them.
+/// The operations lane by lane: [`EFloat`]'s own, one lane at a time.
 #[cfg_attr(target_arch = "x86_64", allow(dead_code))]
 mod portable {
-    use super::EFloat3;
-    use farm_common::geometry::{next_float_down, next_float_up};
+    use super::{EFloat, EFloat3};
+
+    fn from_lanes(lanes: [EFloat; 4]) -> EFloat3 {
+        EFloat3 {
+            v: lanes.map(|e| e.v),
+            low: lanes.map(EFloat::lower_bound),
+            high: lanes.map(EFloat::upper_bound),
+        }
+    }
 
     #[inline(always)]
     pub(super) fn new(v: [f32; 4], err: [f32; 4]) -> EFloat3 {
-        let mut out = EFloat3 { v, low: v, high: v };
-        for l in 0..4 {
-            if err[l] != 0.0 {
-                out.low[l] = next_float_down(v[l] - err[l]);
-                out.high[l] = next_float_up(v[l] + err[l]);
-            }
-        }
-        out
+        from_lanes(std::array::from_fn(|l| EFloat::new(v[l], err[l])))
     }
 
     #[inline(always)]
     pub(super) fn mul(a: &EFloat3, b: &EFloat3) -> EFloat3 {
-        let mut out = EFloat3 { v: [0.0; 4], low: [0.0; 4], high: [0.0; 4] };
-        for l in 0..4 {
-            let p = [
-                a.low[l] * b.low[l],
-                a.high[l] * b.low[l],
-                a.low[l] * b.high[l],
-                a.high[l] * b.high[l],
-            ];
-            out.v[l] = a.v[l] * b.v[l];
-            out.low[l] = next_float_down(p[0].min(p[1]).min(p[2].min(p[3])));
-            out.high[l] = next_float_up(p[0].max(p[1]).max(p[2].max(p[3])));
-        }
-        out
+        from_lanes(std::array::from_fn(|l| a.lane(l) * b.lane(l)))
     }
 }
 
