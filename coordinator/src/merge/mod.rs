@@ -419,11 +419,15 @@ impl Film {
         }
     }
 
-    /// [`Film::image`] of a film that is done with: the running estimate's
-    /// map (4 bytes a pixel) is freed before the image's 12 are allocated.
+    /// [`Film::image`] of a film that is done with, written over the
+    /// film's own sums (`Sums::into_pixels`), after the running estimate's
+    /// map (4 bytes a pixel) and the second half's sums are freed.
     pub fn into_image(mut self) -> RgbImage {
         self.running.map = Vec::new();
-        self.image()
+        let b = self.geometry.cropped_pixel_bounds;
+        let scale = self.geometry.scale;
+        let pixels = self.sums.into_pixels(|rgb, w| resolve(rgb, w, scale));
+        RgbImage { width: b.width() as usize, height: b.height() as usize, pixels }
     }
 
     /// The image: weighted sums divided by weights, clamped at zero, times

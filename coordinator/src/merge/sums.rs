@@ -31,6 +31,32 @@ fn mapped_zeros(n: usize) -> Vec<[f32; 4]> {
     v
 }
 
+/// The sums' floats one after another, in the same allocation.
+fn flat_floats(v: Vec<[f32; 4]>) -> Vec<f32> {
+    let mut v = std::mem::ManuallyDrop::new(v);
+    let (ptr, len, cap) = (v.as_mut_ptr().cast::<f32>(), v.len() * 4, v.capacity() * 4);
+    // SAFETY: `[f32; 4]` is four `f32`s with no padding and the same
+    // alignment, so the block holds `cap` floats: the same layout the
+    // allocator was given (size 16·capacity, alignment 4), which the new
+    // vector hands back when it frees it. `v` is never used again.
+    unsafe { Vec::from_raw_parts(ptr, len, cap) }
+}
+
+/// `v`'s floats as RGB triples, in the same allocation where its capacity
+/// allows (a multiple of three), else copied.
+fn triples(v: Vec<f32>) -> Vec<[f32; 3]> {
+    if !v.len().is_multiple_of(3) || !v.capacity().is_multiple_of(3) {
+        return v.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect();
+    }
+    let mut v = std::mem::ManuallyDrop::new(v);
+    let (ptr, len, cap) = (v.as_mut_ptr().cast::<[f32; 3]>(), v.len() / 3, v.capacity() / 3);
+    // SAFETY: as in `flat_floats`: `[f32; 3]` is three `f32`s with no
+    // padding and the same alignment, and `cap` triples are the block's
+    // size exactly, so the layout is the one it was allocated (or
+    // reallocated) with.
+    unsafe { Vec::from_raw_parts(ptr, len, cap) }
+}
+
 /// A pixel's eight sums as its two planes' four.
 #[inline]
 fn split(p: [f32; 8]) -> [[f32; 4]; 2] {
@@ -110,6 +136,29 @@ impl Sums {
         }
     }
 
+    /// The finished image's pixels, `f(Σw·rgb, Σw)` for each, written
+    /// over the first plane's own memory once the second is freed, so a
+    /// film that is done with never holds its sums and its image at once
+    /// (16 and 12 bytes a pixel).
+    pub fn into_pixels(mut self, f: impl Fn([f32; 3], f32) -> [f32; 3]) -> Vec<[f32; 3]> {
+        self.second = Vec::new();
+        let n = self.value.len();
+        let mut flat = flat_floats(std::mem::take(&mut self.value));
+        // Pixel i's three floats go to 3i..3i + 3, below its own sums at
+        // 4i..4i + 4 and those of every pixel after it: nothing is
+        // overwritten before it is read.
+        for i in 0..n {
+            let s = 4 * i;
+            let rgb = f([flat[s], flat[s + 1], flat[s + 2]], flat[s + 3]);
+            flat[3 * i..3 * i + 3].copy_from_slice(&rgb);
+        }
+        flat.truncate(3 * n);
+        // The allocator shortens the block where it lies and gives its
+        // last quarter back.
+        flat.shrink_to_fit();
+        triples(flat)
+    }
+
     /// Adds these sums to `part` where the two overlap, as merging a tile
     /// of them into it would (through a copy of the overlap: for display).
     pub fn add_into(&self, part: &mut FilmTile) {
@@ -157,6 +206,30 @@ mod tests {
         b.merge(&whole);
         assert_eq!(a.pixel_bounds, reach);
         assert_eq!(a, b);
+    }
+
+    /// The image is each pixel's first-plane sums resolved, as a copy
+    /// would be, and it is written in the sums' own block: under a page,
+    /// and large enough for pages of its own (which shrink in place).
+    #[test]
+    fn the_image_takes_the_sums_place() {
+        for (w, h) in [(7, 5), (1, 1), (900, 700)] {
+            let bounds = Bounds2i::new(Point2i::new(-3, 2), Point2i::new(w - 3, h + 2));
+            let mut planes = Sums::new(bounds);
+            planes.merge(&tile(-10, 0, w + 5, h + 9, 1.3));
+            let want: Vec<[f32; 3]> = (0..planes.value.len())
+                .map(|i| {
+                    let p = planes.pixel(i);
+                    farm_common::film::resolve(p.contrib, p.weight, 0.75)
+                })
+                .collect();
+            let block = planes.value.as_ptr() as usize;
+            let got = planes.into_pixels(|rgb, w| farm_common::film::resolve(rgb, w, 0.75));
+            assert_eq!(got.as_ptr() as usize, block, "{w}×{h}: the image was copied");
+            let bits = |v: &[[f32; 3]]| v.iter().flatten().map(|x| x.to_bits()).collect::<Vec<_>>();
+            assert_eq!(bits(&got), bits(&want), "{w}×{h}");
+            assert_eq!(got.capacity(), got.len());
+        }
     }
 
     #[test]
