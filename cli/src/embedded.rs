@@ -24,6 +24,7 @@ use farm_coordinator::scheduler::{
 use farm_proto::default_in_flight;
 use farm_render::features::Features;
 use farm_render::{RenderOptions, Renderer};
+use std::collections::VecDeque;
 use std::panic::{catch_unwind, AssertUnwindSafe};
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -113,7 +114,15 @@ struct LocalResult {
 }
 
 /// The scheduler's way out to the in-process worker: each assignment
-/// becomes a task on the render pool, taken in the order assigned.
+/// becomes a task on the render pool, in the order assigned, once fewer
+/// tiles than the pool has threads are on it.
+///
+/// Why not all at once: a tile traces its pixels on every thread, and a
+/// thread that waits for the rest of its tile's pixels takes other work
+/// meanwhile, a whole other tile if one is queued on the pool. Its own
+/// tile then ends only after that one, while later tiles end and wait
+/// for it to be merged in order: on cornell-box at 2 threads, hundreds of
+/// finished tiles (7 MB) were held at once, the render's peak memory.
 struct LocalOutbox<R> {
     render: Arc<R>,
     pool: Arc<rayon::ThreadPool>,
@@ -121,17 +130,32 @@ struct LocalOutbox<R> {
     /// Set when the (one) job is cancelled or failed: its queued tiles are
     /// dropped unrendered.
     cancelled: Arc<AtomicBool>,
-    /// Tiles handed to the pool whose result has not been taken yet.
+    /// Tiles assigned whose result has not been taken yet.
     outstanding: usize,
+    /// Assigned tiles not yet on the pool, in order.
+    queued: VecDeque<Assignment>,
+    /// Tiles on the pool whose result has not been taken yet, and how many
+    /// may be ([`LocalOutbox::pump`]).
+    on_pool: usize,
+    pool_limit: usize,
     updates: Vec<JobUpdate>,
 }
 
-impl<R> Outbox for LocalOutbox<R>
+impl<R> LocalOutbox<R>
 where
     R: Fn(TileId, Option<SampleRange>) -> (FilmTile, RayStats) + Send + Sync + 'static,
 {
-    fn assign(&mut self, _worker: WorkerId, a: Assignment) {
-        self.outstanding += 1;
+    /// Puts queued tiles on the pool while fewer than its threads are there.
+    fn pump(&mut self) {
+        while self.on_pool < self.pool_limit {
+            let Some(a) = self.queued.pop_front() else { break };
+            self.on_pool += 1;
+            self.spawn(a);
+        }
+    }
+
+    /// A task on the pool that renders `a` and sends back the result.
+    fn spawn(&self, a: Assignment) {
         let (render, results, cancelled) =
             (self.render.clone(), self.results.clone(), self.cancelled.clone());
         self.pool.spawn_fifo(move || {
@@ -149,6 +173,17 @@ where
             // A closed channel means the render was abandoned.
             let _ = results.send(LocalResult { key: a.key(), outcome });
         });
+    }
+}
+
+impl<R> Outbox for LocalOutbox<R>
+where
+    R: Fn(TileId, Option<SampleRange>) -> (FilmTile, RayStats) + Send + Sync + 'static,
+{
+    fn assign(&mut self, _worker: WorkerId, a: Assignment) {
+        self.outstanding += 1;
+        self.queued.push_back(a);
+        self.pump();
     }
 
     fn cancel(&mut self, _worker: WorkerId, _job: JobId) {
@@ -236,6 +271,9 @@ where
         results,
         cancelled: Arc::default(),
         outstanding: 0,
+        queued: VecDeque::new(),
+        on_pool: 0,
+        pool_limit: 2 * threads,
         updates: Vec::new(),
     };
     let mut sched = Scheduler::new(SchedulerConfig::default());
@@ -281,6 +319,8 @@ where
             return Err(Error::JobFailed("the render threads stopped".into()));
         };
         out.outstanding -= 1;
+        out.on_pool -= 1;
+        out.pump();
         sched.heard_from(LOCAL_WORKER, Instant::now());
         match r.outcome {
             Ok((film_tile, stats)) => {
@@ -438,13 +478,21 @@ mod tests {
     use std::sync::atomic::{AtomicU32, Ordering};
 
     fn geometry() -> FilmGeometry {
-        let b = Bounds2i::new(Point2i::new(0, 0), Point2i::new(40, 30));
+        sized(40, 30)
+    }
+
+    fn sized(w: i32, h: i32) -> FilmGeometry {
+        let b = Bounds2i::new(Point2i::new(0, 0), Point2i::new(w, h));
         FilmGeometry::new(b.max, b, Vec2::splat(1.5), 1.0, f32::INFINITY, "x.exr".into(), 35.0)
     }
 
     /// What a worker renders for a tile: depends only on the tile.
     fn tile(id: TileId) -> (FilmTile, RayStats) {
-        let mut t = FilmTile::new(geometry().tile_pixel_bounds(id));
+        tile_of(&geometry(), id)
+    }
+
+    fn tile_of(g: &FilmGeometry, id: TileId) -> (FilmTile, RayStats) {
+        let mut t = FilmTile::new(g.tile_pixel_bounds(id));
         for p in t.pixel_bounds.iter() {
             let v = ((p.x * 13 + p.y * 7 + id.0 as i32) % 31) as f32 / 31.0;
             t.add(p, Spectrum::new(v, 1.0 - v, 0.5), 0.5 + v, p.x % 2 == 0);
@@ -455,7 +503,14 @@ mod tests {
     fn run(
         render: impl Fn(TileId) -> (FilmTile, RayStats) + Send + Sync + 'static,
     ) -> Result<Arc<FinishedJob>, Error> {
-        let job = LocalJob { geometry: geometry(), spp: 4, name: "test".into(), passes: None };
+        run_on(geometry(), render)
+    }
+
+    fn run_on(
+        geometry: FilmGeometry,
+        render: impl Fn(TileId) -> (FilmTile, RayStats) + Send + Sync + 'static,
+    ) -> Result<Arc<FinishedJob>, Error> {
+        let job = LocalJob { geometry, spp: 4, name: "test".into(), passes: None };
         run_job(move |id, _| render(id), job, 2, None, |_| {})
     }
 
@@ -473,6 +528,36 @@ mod tests {
         let retried = run(flaky).expect("a retry saves the render");
         assert_eq!(retried.image, reference.image);
         assert_eq!(retried.error, reference.error);
+    }
+
+    /// Tiles whose pixels are traced on every thread, as a stateless
+    /// sampler's are: a thread waiting for the rest of its tile takes other
+    /// work meanwhile, but never more tiles than the outbox lets onto the
+    /// pool (twice its threads), so the image's tiles end nearly in order.
+    #[test]
+    fn tiles_traced_on_every_thread_stay_few_on_the_pool() {
+        use rayon::prelude::*;
+        use std::sync::atomic::AtomicUsize;
+        let (now, most) = (Arc::new(AtomicUsize::new(0)), Arc::new(AtomicUsize::new(0)));
+        let (n, m) = (now.clone(), most.clone());
+        // 60 tiles, 10 assigned at a time (the worker's slots on 2 threads).
+        let g = sized(160, 96);
+        let g2 = g.clone();
+        let nested = move |id: TileId| {
+            m.fetch_max(n.fetch_add(1, Ordering::SeqCst) + 1, Ordering::SeqCst);
+            // Pixels of uneven cost on both threads, so one waits for the other.
+            (0..8u64).into_par_iter().for_each(|i| {
+                std::thread::sleep(std::time::Duration::from_micros(100 + 400 * (i % 3)))
+            });
+            n.fetch_sub(1, Ordering::SeqCst);
+            tile_of(&g2, id)
+        };
+        let g3 = g.clone();
+        let reference = run_on(g.clone(), move |id| tile_of(&g3, id)).expect("clean render");
+        let nested = run_on(g, nested).expect("nested render");
+        assert_eq!(nested.image, reference.image);
+        let most = most.load(Ordering::SeqCst);
+        assert!((2..=4).contains(&most), "{most} tiles were being rendered at once on 2 threads");
     }
 
     #[test]
