@@ -6,12 +6,21 @@
 use crate::error::Error;
 use std::panic::{catch_unwind, AssertUnwindSafe};
 use std::sync::Arc;
-use tokio::sync::oneshot;
+use tokio::sync::{oneshot, Semaphore};
 
 /// A dedicated rayon pool for CPU-bound work. Clones share the pool.
+///
+/// At most twice as many closures as it has threads are on the pool at
+/// once; the rest wait their turn on the async side. A tile traces its
+/// pixels on every thread, and a thread that waits for the rest of its
+/// tile takes other work meanwhile, a whole other tile if one is queued:
+/// its own tile then ends only after that one, out of the order the
+/// coordinator merges in, with every tile started under it holding its
+/// buffers (the embedded outbox keeps the same limit, for the same reason).
 #[derive(Clone, Debug)]
 pub struct CpuPool {
     pool: Arc<rayon::ThreadPool>,
+    turns: Arc<Semaphore>,
 }
 
 impl CpuPool {
@@ -21,7 +30,8 @@ impl CpuPool {
             .num_threads(threads)
             .thread_name(|i| format!("farm-render-{i}"))
             .build()?;
-        Ok(CpuPool { pool: Arc::new(pool) })
+        let turns = Arc::new(Semaphore::new(2 * pool.current_num_threads()));
+        Ok(CpuPool { pool: Arc::new(pool), turns })
     }
 
     /// Number of threads.
@@ -29,8 +39,8 @@ impl CpuPool {
         self.pool.current_num_threads()
     }
 
-    /// Runs `f` on the pool and waits for its value without blocking the
-    /// async runtime. A panic in `f` is caught and returned as an error.
+    /// Runs `f` on the pool, once it is its turn, and waits for its value
+    /// without blocking the async runtime. A panic in `f` is caught and returned as an error.
     /// Dropping the returned future does not stop `f` once it has started.
     pub async fn run<F, R>(&self, f: F) -> Result<R, Error>
     where
@@ -38,9 +48,12 @@ impl CpuPool {
         R: Send + 'static,
     {
         let (tx, rx) = oneshot::channel();
+        // The semaphore is never closed, so waiting for a turn cannot fail.
+        let turn = self.turns.clone().acquire_owned().await.map_err(|_| Error::PoolDropped)?;
         self.pool.spawn(move || {
             let result = catch_unwind(AssertUnwindSafe(f))
                 .map_err(|p| Error::Panicked(farm_common::panic_message(&*p)));
+            drop(turn);
             // The receiver is gone when the waiting task was cancelled.
             let _ = tx.send(result);
         });
@@ -71,5 +84,37 @@ mod tests {
             got.push(f.await.unwrap());
         }
         assert_eq!(got, vec![0, 1, 4, 9, 16, 25, 36, 49]);
+    }
+
+    /// Closures that spread their work over the pool, as tiles do: a
+    /// thread waiting for the rest of one takes another from the pool's
+    /// queue, so only twice its threads may be queued there at once.
+    #[tokio::test]
+    async fn closures_that_wait_on_the_pool_stay_few_on_it() {
+        use rayon::prelude::*;
+        use std::sync::atomic::{AtomicUsize, Ordering};
+        let pool = CpuPool::new(2).unwrap();
+        let (now, most) = (Arc::new(AtomicUsize::new(0)), Arc::new(AtomicUsize::new(0)));
+        let runs: Vec<_> = (0..40)
+            .map(|_| {
+                let (pool, n, m) = (pool.clone(), now.clone(), most.clone());
+                tokio::spawn(async move {
+                    pool.run(move || {
+                        m.fetch_max(n.fetch_add(1, Ordering::SeqCst) + 1, Ordering::SeqCst);
+                        (0..8u64).into_par_iter().for_each(|i| {
+                            let us = 100 + 400 * (i % 3);
+                            std::thread::sleep(std::time::Duration::from_micros(us))
+                        });
+                        n.fetch_sub(1, Ordering::SeqCst);
+                    })
+                    .await
+                })
+            })
+            .collect();
+        for r in runs {
+            r.await.unwrap().unwrap();
+        }
+        let most = most.load(Ordering::SeqCst);
+        assert!((2..=4).contains(&most), "{most} closures were running at once on 2 threads");
     }
 }
