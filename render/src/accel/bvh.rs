@@ -187,6 +187,24 @@ impl<T: Copy> Stack<T> {
     }
 }
 
+/// Asks for node `i`'s two cache lines ahead of its visit (a hint only).
+#[inline(always)]
+fn prefetch_node(nodes: &[Node4], i: u32) {
+    #[cfg(target_arch = "x86_64")]
+    if let Some(n) = nodes.get(i as usize) {
+        // SAFETY: a prefetch never faults and changes nothing the program
+        // can see; the address is that of a live node.
+        unsafe {
+            use std::arch::x86_64::{_mm_prefetch, _MM_HINT_T0};
+            let p = (n as *const Node4).cast::<i8>();
+            _mm_prefetch::<_MM_HINT_T0>(p);
+            _mm_prefetch::<_MM_HINT_T0>(p.add(64));
+        }
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    let _ = (nodes, i);
+}
+
 /// The hierarchy. It stores only nodes; the caller keeps the primitives in
 /// the order [`Bvh::build`] returns and tests them in the closures given to
 /// [`Bvh::intersect`] and [`Bvh::intersect_any`].
@@ -316,6 +334,9 @@ impl Bvh {
             while mask != 0 {
                 let l = mask.trailing_zeros() as usize;
                 mask &= mask - 1;
+                if node.count[l] == 0 {
+                    prefetch_node(&self.nodes, node.child[l]);
+                }
                 let (e, d) = (u64::from(node.child[l]) | u64::from(node.count[l]) << 32, t[l]);
                 let mut j = k;
                 while j > 0 && dists[j - 1] < d {
@@ -355,6 +376,7 @@ impl Bvh {
                 mask &= mask - 1;
                 let count = node.count[l] as usize;
                 if count == 0 {
+                    prefetch_node(&self.nodes, node.child[l]);
                     stack.push(node.child[l]);
                     continue;
                 }
