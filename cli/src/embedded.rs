@@ -115,14 +115,14 @@ struct LocalResult {
 
 /// The scheduler's way out to the in-process worker: each assignment
 /// becomes a task on the render pool, in the order assigned, once fewer
-/// tiles than the pool has threads are on it.
+/// than twice the pool's threads of tiles are on it.
 ///
 /// Why not all at once: a tile traces its pixels on every thread, and a
 /// thread that waits for the rest of its tile's pixels takes other work
 /// meanwhile, a whole other tile if one is queued on the pool. Its own
 /// tile then ends only after that one, while later tiles end and wait
-/// for it to be merged in order: on cornell-box at 2 threads, hundreds of
-/// finished tiles (7 MB) were held at once, the render's peak memory.
+/// for it to be merged in order: on cornell-box at 2 threads, up to 1,022
+/// of its 1,024 finished tiles waited at once, the render's peak memory.
 struct LocalOutbox<R> {
     render: Arc<R>,
     pool: Arc<rayon::ThreadPool>,
@@ -145,7 +145,7 @@ impl<R> LocalOutbox<R>
 where
     R: Fn(TileId, Option<SampleRange>) -> (FilmTile, RayStats) + Send + Sync + 'static,
 {
-    /// Puts queued tiles on the pool while fewer than its threads are there.
+    /// Puts queued tiles on the pool while fewer than `pool_limit` are there.
     fn pump(&mut self) {
         while self.on_pool < self.pool_limit {
             let Some(a) = self.queued.pop_front() else { break };

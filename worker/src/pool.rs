@@ -40,8 +40,9 @@ impl CpuPool {
     }
 
     /// Runs `f` on the pool, once it is its turn, and waits for its value
-    /// without blocking the async runtime. A panic in `f` is caught and returned as an error.
-    /// Dropping the returned future does not stop `f` once it has started.
+    /// without blocking the async runtime. A panic in `f` is caught and
+    /// returned as an error. Dropping the returned future does not stop `f`
+    /// once it has started.
     pub async fn run<F, R>(&self, f: F) -> Result<R, Error>
     where
         F: FnOnce() -> R + Send + 'static,
