@@ -367,6 +367,20 @@ pub fn render_parsed(
     render_parsed_with(desc, warnings, start, opts, progress, |_, _, _| {})
 }
 
+/// Gives the pages of the heap's free blocks back to the system: what
+/// parsing and building freed (the scene's text, its parameter lists, a
+/// mesh's arrays as parsed) sits between blocks still in use, where
+/// glibc's own trimming, which only cuts the heap's top, cannot reach it.
+/// On teapot-area-light (2,292 meshes) that is about 1 MB of a 15 MB peak.
+fn return_freed_heap() {
+    #[cfg(all(target_os = "linux", target_env = "gnu"))]
+    // SAFETY: malloc_trim only releases free memory; it takes the
+    // allocator's own locks and touches no block in use.
+    unsafe {
+        libc::malloc_trim(0);
+    }
+}
+
 /// [`render_parsed`], calling `on_pass` as [`run_job_with`] does.
 pub fn render_parsed_with(
     mut desc: SceneDescription,
@@ -385,6 +399,7 @@ pub fn render_parsed_with(
     let (renderer, build_warnings) =
         Renderer::new(desc, &RenderOptions { spp: opts.spp, all_paths: opts.all_paths })?;
     warnings.extend(build_warnings);
+    return_freed_heap();
     let startup_seconds = start.elapsed().as_secs_f64();
     let output = opts.output.clone().unwrap_or_else(|| PathBuf::from(&renderer.film.filename));
     let features = renderer.features.clone();
