@@ -130,8 +130,6 @@ struct LocalOutbox<R> {
     /// Set when the (one) job is cancelled or failed: its queued tiles are
     /// dropped unrendered.
     cancelled: Arc<AtomicBool>,
-    /// Tiles assigned whose result has not been taken yet.
-    outstanding: usize,
     /// Assigned tiles not yet on the pool, in order.
     queued: VecDeque<Assignment>,
     /// Tiles on the pool whose result has not been taken yet, and how many
@@ -145,6 +143,11 @@ impl<R> LocalOutbox<R>
 where
     R: Fn(TileId, Option<SampleRange>) -> (FilmTile, RayStats) + Send + Sync + 'static,
 {
+    /// Tiles assigned whose result has not been taken yet.
+    fn outstanding(&self) -> usize {
+        self.queued.len() + self.on_pool
+    }
+
     /// Puts queued tiles on the pool while fewer than `pool_limit` are there.
     fn pump(&mut self) {
         while self.on_pool < self.pool_limit {
@@ -181,7 +184,6 @@ where
     R: Fn(TileId, Option<SampleRange>) -> (FilmTile, RayStats) + Send + Sync + 'static,
 {
     fn assign(&mut self, _worker: WorkerId, a: Assignment) {
-        self.outstanding += 1;
         self.queued.push_back(a);
         self.pump();
     }
@@ -270,7 +272,6 @@ where
         pool: Arc::new(pool),
         results,
         cancelled: Arc::default(),
-        outstanding: 0,
         queued: VecDeque::new(),
         on_pool: 0,
         pool_limit: 2 * threads,
@@ -304,7 +305,7 @@ where
                 d.pieces(&live.take_pieces(film, usize::MAX));
             }
         }
-        if out.outstanding == 0 {
+        if out.outstanding() == 0 {
             // Nothing is rendering and the scheduler hands this worker no
             // more: every remaining tile failed here too often. No other
             // worker will come, so the job cannot finish.
@@ -318,7 +319,6 @@ where
         let Ok(r) = inbox.recv() else {
             return Err(Error::JobFailed("the render threads stopped".into()));
         };
-        out.outstanding -= 1;
         out.on_pool -= 1;
         out.pump();
         sched.heard_from(LOCAL_WORKER, Instant::now());

@@ -63,22 +63,6 @@ fn split(p: [f32; 8]) -> [[f32; 4]; 2] {
     [[p[0], p[1], p[2], p[3]], [p[4], p[5], p[6], p[7]]]
 }
 
-/// Asks for the cache lines of `run` ahead of their use (a hint only).
-#[inline]
-fn prefetch(run: &[[f32; 4]]) {
-    #[cfg(target_arch = "x86_64")]
-    for line in run.chunks(4) {
-        // SAFETY: a prefetch never faults and changes nothing the program
-        // can see; the address is that of a live element.
-        unsafe {
-            use std::arch::x86_64::{_mm_prefetch, _MM_HINT_T0};
-            _mm_prefetch::<_MM_HINT_T0>(line.as_ptr().cast());
-        }
-    }
-    #[cfg(not(target_arch = "x86_64"))]
-    let _ = run;
-}
-
 impl Sums {
     /// Zero sums over `bounds`.
     pub fn new(bounds: Bounds2i) -> Self {
@@ -117,8 +101,8 @@ impl Sums {
         // than follow one another row by row.
         for y in o.min.y..o.max.y {
             let d = self.bounds.offset(Point2i::new(o.min.x, y));
-            prefetch(&self.value[d..d + n]);
-            prefetch(&self.second[d..d + n]);
+            farm_common::prefetch(&self.value[d..d + n]);
+            farm_common::prefetch(&self.second[d..d + n]);
         }
         for y in o.min.y..o.max.y {
             let row = Point2i::new(o.min.x, y);

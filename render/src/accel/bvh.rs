@@ -187,22 +187,10 @@ impl<T: Copy> Stack<T> {
     }
 }
 
-/// Asks for node `i`'s two cache lines ahead of its visit (a hint only).
+/// Asks for node `i`'s cache lines ahead of its visit (a hint only).
 #[inline(always)]
 fn prefetch_node(nodes: &[Node4], i: u32) {
-    #[cfg(target_arch = "x86_64")]
-    if let Some(n) = nodes.get(i as usize) {
-        // SAFETY: a prefetch never faults and changes nothing the program
-        // can see; the address is that of a live node.
-        unsafe {
-            use std::arch::x86_64::{_mm_prefetch, _MM_HINT_T0};
-            let p = (n as *const Node4).cast::<i8>();
-            _mm_prefetch::<_MM_HINT_T0>(p);
-            _mm_prefetch::<_MM_HINT_T0>(p.add(64));
-        }
-    }
-    #[cfg(not(target_arch = "x86_64"))]
-    let _ = (nodes, i);
+    farm_common::prefetch(nodes.get(i as usize..=i as usize).unwrap_or_default());
 }
 
 /// The hierarchy. It stores only nodes; the caller keeps the primitives in
