@@ -11,6 +11,7 @@ use farm_common::ids::TileId;
 use farm_common::image::RgbImage;
 use farm_common::le::extend_f32s;
 use std::collections::BTreeMap;
+use std::sync::Arc;
 use sums::Sums;
 
 mod sums;
@@ -41,7 +42,7 @@ pub struct Film {
     /// The whole image's sums over the cropped pixel bounds.
     sums: Sums,
     next: u32,
-    pending: BTreeMap<u32, FilmTile>,
+    pending: BTreeMap<u32, Arc<FilmTile>>,
     /// The pixels whose sums became complete, in the order they did: what
     /// a watcher needs to draw since it last looked, each pixel once. A
     /// tile merged in turn completes its final pixels; one that arrives
@@ -201,7 +202,7 @@ impl Film {
 
     /// Takes a tile [`Film::check`] found new, and merges every tile whose
     /// turn has come.
-    pub fn insert(&mut self, id: TileId, tile: FilmTile) {
+    pub fn insert(&mut self, id: TileId, tile: impl Into<Arc<FilmTile>>) {
         self.finished = None;
         self.start_pass();
         let g = &self.geometry;
@@ -211,7 +212,7 @@ impl Film {
             let inside = g.tile_interior_pixels(id).intersect(&crop);
             self.changes.extend(Some(inside).filter(|r| !r.is_empty()));
         }
-        self.pending.insert(id.0, tile);
+        self.pending.insert(id.0, tile.into());
         while let Some(t) = self.pending.remove(&self.next) {
             self.sums.merge(&t);
             let t = TileId(self.next);

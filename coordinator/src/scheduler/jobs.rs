@@ -8,6 +8,7 @@ use farm_common::film::FilmTile;
 use farm_common::ids::{JobId, TileAttempt, TileId, WorkerId};
 use farm_common::stats::RayStats;
 use std::collections::HashSet;
+use std::sync::Arc;
 use std::time::Duration;
 use tracing::{debug, info, warn};
 
@@ -198,6 +199,7 @@ impl Scheduler {
         let j = self.jobs.get_mut(&job).expect("held tiles belong to known jobs");
         let film = j.film.as_mut().expect("active jobs have a film");
         let key = TileId(j.pass.saturating_mul(j.spec.geometry.tile_count()) + tile.0);
+        let film_tile = Arc::new(film_tile);
         out.record(Record::Merged { job, tile: key, film_tile: &film_tile, stats: &stats });
         film.insert(tile, film_tile);
         let complete = film.is_complete();

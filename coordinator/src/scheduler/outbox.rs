@@ -8,6 +8,7 @@ use farm_common::film::{FilmTile, PassEnd, PassStop, SampleRange};
 use farm_common::ids::{JobId, TileAttempt, TileId, WorkerId};
 use farm_common::image::RgbImage;
 use farm_common::stats::RayStats;
+use std::sync::Arc;
 
 /// One tile handed to a worker.
 #[derive(Clone, Debug, PartialEq, Eq)]
@@ -133,8 +134,9 @@ pub enum Record<'a> {
         /// The tile's index in the job's passes: pass × tiles + tile (the
         /// tile itself for a job without passes).
         tile: TileId,
-        /// Its sums.
-        film_tile: &'a FilmTile,
+        /// Its sums, shared with the film (and the journal, which encodes
+        /// them on its own thread).
+        film_tile: &'a Arc<FilmTile>,
         /// Its rays.
         stats: &'a RayStats,
     },

@@ -24,7 +24,7 @@ use farm_proto::convert::Hash;
 use prost::Message;
 use rusqlite::{params, Connection};
 use std::path::Path;
-use std::sync::mpsc;
+use std::sync::{mpsc, Arc};
 use std::time::{SystemTime, UNIX_EPOCH};
 use tokio::sync::oneshot;
 use tracing::{debug, error};
@@ -105,14 +105,18 @@ pub enum Command {
         /// Hand-outs so far.
         n: u32,
     },
-    /// A tile's result was accepted.
+    /// A tile's result was accepted: the film's own tile, shared, so the
+    /// event loop neither copies nor encodes it; the writer encodes it
+    /// ([`encode_tile_into`]) straight before appending it to the log.
     Merged {
         /// The job.
         job: u64,
         /// The tile.
         tile: u32,
-        /// The result (postcard of the tile and its ray counts).
-        data: Vec<u8>,
+        /// Its sums.
+        film_tile: Arc<FilmTile>,
+        /// Its rays.
+        stats: RayStats,
     },
     /// A job ended; for a finished one, with its image, stored as the
     /// very `JobEvent`s a watcher is sent. Its tiles are no longer needed.
@@ -122,7 +126,7 @@ pub enum Command {
         /// How.
         ending: Ending,
         /// The image of a finished job, shared with its watchers.
-        image: Option<std::sync::Arc<FinishedJob>>,
+        image: Option<Arc<FinishedJob>>,
     },
     /// Jobs purged after their retention period.
     Purge {
@@ -207,7 +211,7 @@ impl std::fmt::Debug for Journal {
     }
 }
 
-/// Encodes a tile result for [`Command::Merged`]: the bytes of postcard's
+/// Encodes a tile result for its log record: the bytes of postcard's
 /// encoding of `(tile, stats)`, which restoring decodes.
 ///
 /// postcard writes a struct as its fields in order, a sequence as its
@@ -217,15 +221,24 @@ impl std::fmt::Debug for Journal {
 /// float that pushed one byte at a time, this was 8% of the coordinator's
 /// CPU while tiles came in.
 pub fn encode_tile(tile: &FilmTile, stats: &RayStats) -> Vec<u8> {
+    let mut out = Vec::new();
+    encode_tile_into(&mut out, tile, stats);
+    out
+}
+
+/// [`encode_tile`] into `out`, cleared first: the writer keeps one buffer
+/// for every tile.
+pub fn encode_tile_into(out: &mut Vec<u8>, tile: &FilmTile, stats: &RayStats) {
     const PIXEL: usize = std::mem::size_of::<[f32; 8]>();
-    // Sized up front, so nothing is reallocated.
-    let mut out = Vec::with_capacity(64 + tile.pixels.len() * PIXEL);
+    out.clear();
+    // Room for all of it up front, so nothing is reallocated.
+    out.reserve(64 + tile.pixels.len() * PIXEL);
     let head = (&tile.pixel_bounds, tile.pixels.len() as u64);
-    out = postcard::to_extend(&head, out).unwrap_or_default();
+    let mut buf = postcard::to_extend(&head, std::mem::take(out)).unwrap_or_default();
     for p in &tile.pixels {
-        farm_common::le::extend_f32s(&mut out, &p.to_array());
+        farm_common::le::extend_f32s(&mut buf, &p.to_array());
     }
-    postcard::to_extend(stats, out).unwrap_or_default()
+    *out = postcard::to_extend(stats, buf).unwrap_or_default();
 }
 
 impl Journal {
@@ -277,9 +290,12 @@ impl Journal {
             Record::HandedOut { job, tile, n } => {
                 Command::HandedOut { job: job.0, tile: tile.0, n }
             }
-            Record::Merged { job, tile, film_tile, stats } => {
-                Command::Merged { job: job.0, tile: tile.0, data: encode_tile(film_tile, stats) }
-            }
+            Record::Merged { job, tile, film_tile, stats } => Command::Merged {
+                job: job.0,
+                tile: tile.0,
+                film_tile: film_tile.clone(),
+                stats: *stats,
+            },
             Record::Ended { job, state, image } => {
                 let ending = match state {
                     JobState::Failed(m) => Ending::Failed(m.clone()),
@@ -302,6 +318,8 @@ impl Journal {
 }
 
 fn writer(mut conn: Connection, mut logs: TileLogs, rx: mpsc::Receiver<Command>) {
+    // Each tile is encoded here, into this one buffer, then appended.
+    let mut encoded = Vec::new();
     while let Ok(first) = rx.recv() {
         let mut batch = vec![first];
         while batch.len() < 1024 {
@@ -315,7 +333,7 @@ fn writer(mut conn: Connection, mut logs: TileLogs, rx: mpsc::Receiver<Command>)
         let result = (|| -> rusqlite::Result<()> {
             let tx = conn.transaction()?;
             for c in batch {
-                apply(&tx, &mut logs, c, &mut replies, &mut ended)?;
+                apply(&tx, &mut logs, c, &mut encoded, &mut replies, &mut ended)?;
             }
             // Tiles reach the OS before the commit that could end their job.
             logs.flush();
@@ -343,6 +361,7 @@ fn apply(
     tx: &rusqlite::Transaction<'_>,
     logs: &mut TileLogs,
     c: Command,
+    encoded: &mut Vec<u8>,
     replies: &mut Vec<Reply>,
     ended: &mut Vec<u64>,
 ) -> rusqlite::Result<()> {
@@ -388,7 +407,10 @@ fn apply(
             )?
             .execute(params![job as i64, tile, n])?;
         }
-        Command::Merged { job, tile, data } => logs.append(job, tile, &data),
+        Command::Merged { job, tile, film_tile, stats } => {
+            encode_tile_into(encoded, &film_tile, &stats);
+            logs.append(job, tile, encoded);
+        }
         Command::Ended { job, ending, image } => {
             let (state, reason) = match ending {
                 Ending::Done => ("done", None),

@@ -186,7 +186,7 @@ async fn tiles_come_back_from_the_log_and_from_rows_written_before_it() {
         let s = spec(vec![[1u8; 32]]);
         j.send(Command::Submitted { id: 4, detach: false, blobs: vec![], spec: Box::new(s) });
         for k in [2, 0] {
-            j.send(Command::Merged { job: 4, tile: k, data: encode_tile(&tile(k), &stats) });
+            j.send(Command::Merged { job: 4, tile: k, film_tile: Arc::new(tile(k)), stats });
         }
         j.flush().await;
     }
@@ -265,6 +265,8 @@ async fn a_finished_image_is_read_back_as_the_events_a_watcher_is_sent() {
 fn a_tile_is_encoded_as_postcard_encodes_it() {
     use farm_common::film::FilmTile;
     let mut rng = farm_common::rng::Rng::new(7);
+    // The writer's one buffer, reused from tile to tile, larger ones first.
+    let mut reused = Vec::new();
     for (x0, y0, w, h) in [(0, 0, 16, 16), (-3, -40, 5, 1), (1000, 7, 0, 0), (2, 3, 13, 7)] {
         let bounds = Bounds2i::new(Point2i::new(x0, y0), Point2i::new(x0 + w, y0 + h));
         let mut tile = FilmTile::new(bounds);
@@ -287,6 +289,8 @@ fn a_tile_is_encoded_as_postcard_encodes_it() {
         };
         let ours = encode_tile(&tile, &stats);
         assert_eq!(ours, postcard::to_stdvec(&(&tile, &stats)).unwrap(), "{bounds:?}");
+        encode_tile_into(&mut reused, &tile, &stats);
+        assert_eq!(reused, ours, "{bounds:?} into a used buffer");
         let (back, s): (FilmTile, RayStats) = postcard::from_bytes(&ours).unwrap();
         assert_eq!((back.pixel_bounds, s), (tile.pixel_bounds, stats));
         let bits = |t: &FilmTile| -> Vec<u32> {
