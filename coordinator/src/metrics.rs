@@ -60,6 +60,11 @@ pub struct Metrics {
     pub blob_bytes: Gauge,
     /// Bytes uploads brought in (a blob sent twice counts twice).
     pub blob_uploaded: Counter,
+    /// Seconds the event loop spent handling events (not waiting for
+    /// them): every scheduling decision and merge is made there, one at a
+    /// time, so its share of a second is how close the coordinator is to
+    /// the most it can take.
+    pub loop_busy: Counter<f64, AtomicU64>,
 }
 
 impl Default for Metrics {
@@ -136,6 +141,13 @@ impl Metrics {
             Unit::Bytes,
             blob_uploaded.clone(),
         );
+        let loop_busy = Counter::<f64, AtomicU64>::default();
+        r.register_with_unit(
+            "event_loop_busy",
+            "Time the event loop spent handling events rather than waiting for them",
+            Unit::Seconds,
+            loop_busy.clone(),
+        );
         Metrics {
             registry: r,
             jobs,
@@ -151,6 +163,7 @@ impl Metrics {
             rays_per_second,
             blob_bytes,
             blob_uploaded,
+            loop_busy,
         }
     }
 

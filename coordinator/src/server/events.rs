@@ -171,7 +171,12 @@ pub async fn run(mut rx: EventRx, config: ServerConfig, state: LoopState) {
     let mut unwatched: HashMap<JobId, Instant> = HashMap::new();
     // The running estimate each active job's row or page was last shown.
     let mut shown: HashMap<JobId, f64> = HashMap::new();
+    // When the event being handled was taken.
+    let mut busy_since: Option<Instant> = None;
     loop {
+        if let Some(t) = busy_since.take() {
+            out.metrics.loop_busy.inc_by(t.elapsed().as_secs_f64());
+        }
         // A film back from off the loop goes first: its job waits for it.
         let ev = tokio::select! {
             biased;
@@ -181,6 +186,7 @@ pub async fn run(mut rx: EventRx, config: ServerConfig, state: LoopState) {
                 None => break,
             },
         };
+        busy_since = Some(Instant::now());
         let ev = match ev {
             Ok(ev) => ev,
             Err(done) => {

@@ -105,6 +105,22 @@ struct Capacity {
     /// The longest the coordinator's event loop took to answer a probe
     /// while the job ran ([`probe_loop`]), in seconds.
     stall: f64,
+    /// Seconds the coordinator's event loop was busy from the submit call
+    /// to the image (`farm_event_loop_busy_seconds_total`): the part of its
+    /// CPU that is done one event at a time, which no second core helps.
+    loop_busy: f64,
+}
+
+/// The coordinator's event loop's busy seconds so far, from `/metrics`.
+async fn loop_busy(url: &str) -> Result<f64, String> {
+    let addr = url.trim_start_matches("http://").to_string();
+    let text = tokio::task::spawn_blocking(move || farm_tests::http::get(&addr, "/metrics").body)
+        .await
+        .map_err(|e| e.to_string())?;
+    let text = String::from_utf8(text).map_err(|e| e.to_string())?;
+    let samples = farm_tests::http::parse_prometheus(&text)?;
+    farm_tests::http::value(&samples, "farm_event_loop_busy_seconds_total", &[])
+        .ok_or_else(|| "no farm_event_loop_busy_seconds_total".to_string())
 }
 
 /// Asks the coordinator every 2 ms, until `stop`, to cancel a job that
@@ -183,6 +199,7 @@ async fn capacity_run(
 
     let pid = procs.0[0].id().to_string();
     let cpu = || cpu_seconds(&pid).ok_or("no /proc reading of the coordinator".to_string());
+    let busy0 = loop_busy(&url).await?;
     let (t, cpu0) = (Instant::now(), cpu()?);
     let mut marks = Marks::default();
     let opts = RemoteOptions::default();
@@ -198,11 +215,12 @@ async fn capacity_run(
         Err(_) => return Err("timed out after 300 s".into()),
     }
     let (wall_image, cpu_image) = (t.elapsed().as_secs_f64(), cpu()? - cpu0);
+    let loop_busy = loop_busy(&url).await? - busy0;
     stop.store(true, std::sync::atomic::Ordering::Relaxed);
     let stall = probe.await.unwrap_or(f64::NAN);
     drop(procs);
     let cpu_steady = marks.per_tile().ok_or("no progress events at 10% and 90%")?;
-    Ok(Capacity { register, cpu_steady, wall_image, cpu_image, stall })
+    Ok(Capacity { register, cpu_steady, wall_image, cpu_image, stall, loop_busy })
 }
 
 pub(super) fn capacity_table(rt: &Runtime) {
@@ -226,11 +244,11 @@ pub(super) fn capacity_table(rt: &Runtime) {
         Err(_) => FAKE_WORKERS.to_vec(),
     };
     println!(
-        "{:>7} {:>7} {:>7} | {:>10} {:>12} | {:>10} {:>10} {:>12} | {:>8} {:>8}",
-        "", "", "", "10-90%", "", "to image", "", "", "job", "stall"
+        "{:>7} {:>7} {:>7} | {:>10} {:>12} | {:>10} {:>10} {:>12} {:>10} | {:>8} {:>8}",
+        "", "", "", "10-90%", "", "to image", "", "", "loop", "job", "stall"
     );
     println!(
-        "{:>7} {:>7} {:>7} | {:>10} {:>12} | {:>10} {:>10} {:>12} | {:>8} {:>8}",
+        "{:>7} {:>7} {:>7} | {:>10} {:>12} | {:>10} {:>10} {:>12} {:>10} | {:>8} {:>8}",
         "workers",
         "tiles",
         "joined",
@@ -239,6 +257,7 @@ pub(super) fn capacity_table(rt: &Runtime) {
         "tiles/s",
         "µs/tile",
         "tiles/s/core",
+        "µs/tile",
         "ms",
         "ms"
     );
@@ -265,13 +284,14 @@ pub(super) fn capacity_table(rt: &Runtime) {
         let steady = median(&|c| c.cpu_steady);
         let (wi, ci) = (median(&|c| c.wall_image), median(&|c| c.cpu_image));
         println!(
-            "{workers:>7} {n:>7} {:>7.2} | {:>10.1} {:>12.0} | {:>10.0} {:>10.1} {:>12.0} | {:>8.0} {:>8.1}",
+            "{workers:>7} {n:>7} {:>7.2} | {:>10.1} {:>12.0} | {:>10.0} {:>10.1} {:>12.0} {:>10.1} | {:>8.0} {:>8.1}",
             median(&|c| c.register),
             1e6 * steady,
             1.0 / steady,
             rate(wi),
             per_tile(ci),
             rate(ci),
+            per_tile(median(&|c| c.loop_busy)),
             1e3 * median(&|c| c.cpu_image - c.cpu_steady * n as f64),
             1e3 * median(&|c| c.stall),
         );
@@ -284,7 +304,9 @@ pub(super) fn capacity_table(rt: &Runtime) {
          between the progress events that first report 10% and 90% of the tiles merged \
          (dispatch, merge, journal: what grows with tiles), and its inverse. To image = from \
          the submit call to the finished {}×{} image received by the client: tiles/s over wall \
-         seconds, and the coordinator's CPU a tile and its inverse. Job = the coordinator's CPU \
+         seconds, the coordinator's CPU a tile and its inverse, and its event loop's busy time a tile \
+         (farm_event_loop_busy_seconds_total: the part done one event at a time, which \
+         more cores do not share). Job = the coordinator's CPU \
          to image less 10-90%'s cost for every tile: the job's own start and end (its film, \
          estimate and image), which grow with pixels. Stall = the longest the coordinator's \
          event loop took to answer a probe sent every 2 ms while the job ran (two events: a \
