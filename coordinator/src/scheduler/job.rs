@@ -139,6 +139,11 @@ pub(super) struct Job {
     pub(super) started: Option<Instant>,
     pub(super) done_tiles: u32,
     pub(super) last_progress: Instant,
+    /// The workers holding its tiles when last counted, and when. The
+    /// count walks every tile out (10,000 with as many workers), so the
+    /// progress events sent every 0.5% of the tiles count again at most
+    /// every `PROGRESS_EVERY` and report the last count meanwhile.
+    pub(super) holders_counted: Option<(u32, Instant)>,
     pub(super) finished: Option<std::sync::Arc<FinishedJob>>,
     /// A complete film being ended ([`super::Outbox::end_film`]): the
     /// samples per pixel and render seconds its image will carry.
@@ -186,6 +191,7 @@ impl Job {
             started: None,
             done_tiles: 0,
             last_progress: now,
+            holders_counted: None,
             finished: None,
             ending: None,
             estimating: None,

@@ -13,7 +13,7 @@ use std::time::Duration;
 use tracing::{debug, info, warn};
 
 /// Longest quiet spell between progress updates of a running job.
-const PROGRESS_EVERY: Duration = Duration::from_millis(100);
+pub(super) const PROGRESS_EVERY: Duration = Duration::from_millis(100);
 
 impl Scheduler {
     /// Queues a job and hands out tiles.
@@ -217,13 +217,20 @@ impl Scheduler {
             || now.duration_since(j.last_progress) >= PROGRESS_EVERY
         {
             j.last_progress = now;
-            let workers: HashSet<WorkerId> = j.in_flight.values().map(|(w, _)| *w).collect();
-            let update = JobUpdate::Progress {
-                done: j.done_tiles,
-                total,
-                workers: workers.len() as u32,
-                stats: j.stats,
+            let workers = match j.holders_counted {
+                Some((n, at))
+                    if j.done_tiles < total && now.duration_since(at) < PROGRESS_EVERY =>
+                {
+                    n
+                }
+                _ => {
+                    let holders: HashSet<WorkerId> =
+                        j.in_flight.values().map(|(w, _)| *w).collect();
+                    j.holders_counted = Some((holders.len() as u32, now));
+                    holders.len() as u32
+                }
             };
+            let update = JobUpdate::Progress { done: j.done_tiles, total, workers, stats: j.stats };
             out.notify(job, update);
         }
         // The tile's other hand-outs are no longer needed, but their

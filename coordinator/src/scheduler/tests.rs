@@ -467,3 +467,49 @@ fn workers_hold_few_tiles_of_a_job_whose_tiles_render_on_all_threads() {
     assert_eq!(s.job_state(job), Some(&JobState::Done));
     assert_eq!(most_at_the_end, 1);
 }
+
+/// Progress events count the workers holding the job's tiles again at
+/// most every `PROGRESS_EVERY` (the count walks every tile out), and
+/// exactly at the last tile.
+#[test]
+fn progress_counts_the_holders_at_most_every_interval() {
+    let g = geometry();
+    let mut s = Scheduler::new(SchedulerConfig::default());
+    let mut out = Recorder::default();
+    let t0 = Instant::now();
+    s.set_virtual_time(t0);
+    for w in 1..=2 {
+        s.worker_joined(WorkerId(w), format!("w{w}"), 1, 3, t0, &mut out);
+    }
+    let job = s.submit(spec(0), &mut out);
+    let workers = |out: &Recorder| match out.updates.last() {
+        Some((j, JobUpdate::Progress { workers, .. })) if *j == job => *workers,
+        other => panic!("not a progress event: {other:?}"),
+    };
+    let done = |s: &mut Scheduler, out: &mut Recorder, w: u64| {
+        let (_, a) = out.assigned.iter().find(|(h, _)| *h == WorkerId(w)).cloned().unwrap();
+        out.assigned.retain(|(_, b)| b.key() != a.key());
+        s.tile_done(WorkerId(w), a.key(), render(&g, a.tile), RayStats::default(), out);
+    };
+    done(&mut s, &mut out, 1);
+    assert_eq!(workers(&out), 2, "both hold tiles");
+    // Worker 2 leaves: within the interval, the last count stands.
+    s.worker_left(WorkerId(2), &mut out);
+    out.assigned.retain(|(w, _)| *w == WorkerId(1));
+    done(&mut s, &mut out, 1);
+    assert_eq!(workers(&out), 2, "counted again within the interval");
+    s.set_virtual_time(t0 + jobs::PROGRESS_EVERY);
+    done(&mut s, &mut out, 1);
+    assert_eq!(workers(&out), 1, "counted again after it");
+    // The rest, at the same time: the last tile's count is exact.
+    while !out.assigned.is_empty() {
+        done(&mut s, &mut out, 1);
+    }
+    let last = out.updates.iter().rev().find_map(|(j, u)| match u {
+        JobUpdate::Progress { done, total, workers, .. } if *j == job => {
+            Some((*done, *total, *workers))
+        }
+        _ => None,
+    });
+    assert_eq!(last, Some((g.tile_count(), g.tile_count(), 0)));
+}
