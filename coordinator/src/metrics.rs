@@ -63,7 +63,8 @@ pub struct Metrics {
     /// Seconds the event loop spent handling events (not waiting for
     /// them): every scheduling decision and merge is made there, one at a
     /// time, so its share of a second is how close the coordinator is to
-    /// the most it can take.
+    /// the most it can take. (The journal's writer, on its own thread,
+    /// could fall behind first on a slow disk; this does not show that.)
     pub loop_busy: Counter<f64, AtomicU64>,
 }
 

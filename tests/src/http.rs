@@ -79,6 +79,18 @@ pub fn get(address: &str, path: &str) -> Answer {
     request(address, "GET", path, &[], b"").expect("HTTP request")
 }
 
+/// The samples `GET /metrics` at `address` answers (blocking), and the
+/// text they were parsed from.
+pub fn scrape(address: &str) -> Result<(Vec<Sample>, String), String> {
+    let answer = request(address, "GET", "/metrics", &[], b"").map_err(|e| e.to_string())?;
+    if answer.status != 200 {
+        return Err(format!("GET /metrics: HTTP {}", answer.status));
+    }
+    let text = String::from_utf8(answer.body).map_err(|e| e.to_string())?;
+    let samples = parse_prometheus(&text).map_err(|e| format!("{e}\n{text}"))?;
+    Ok((samples, text))
+}
+
 /// One sample of the Prometheus text format.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Sample {

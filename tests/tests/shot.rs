@@ -12,7 +12,7 @@ use farm_common::image::RgbImage;
 use farm_proto::convert::encode_scene;
 use farm_scene::SceneStream;
 use farm_tests::cluster::TestCluster;
-use farm_tests::http::{self, parse_prometheus, value};
+use farm_tests::http::{self, value};
 use std::collections::BTreeMap;
 use std::path::Path;
 use std::time::{Duration, Instant};
@@ -86,10 +86,8 @@ async fn a_shot_renders_the_same_frames_embedded_and_on_two_workers_sending_its_
     assert_eq!(totals.uploaded_bytes, sent);
     assert_eq!(totals.blobs_reused, 23, "the mesh, named by 23 frames after the first");
     let address = cluster.url.trim_start_matches("http://").to_string();
-    let answer =
-        tokio::task::spawn_blocking(move || http::get(&address, "/metrics")).await.unwrap();
-    let text = String::from_utf8(answer.body).unwrap();
-    let m = parse_prometheus(&text).unwrap_or_else(|e| panic!("{e}\n{text}"));
+    let (m, _) =
+        tokio::task::spawn_blocking(move || http::scrape(&address)).await.unwrap().unwrap();
     let received = value(&m, "farm_blob_upload_bytes_total", &[]).expect("the upload counter");
     // Sent with each frame, the mesh would have added 23 × its size.
     assert_eq!(received, sent as f64, "bytes the coordinator received ({mesh}-byte mesh)");

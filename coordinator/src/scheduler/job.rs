@@ -169,6 +169,12 @@ pub(super) struct Job {
 }
 
 impl Job {
+    /// The workers holding its tiles (walks every tile out).
+    pub(super) fn holder_count(&self) -> u32 {
+        let holders: HashSet<WorkerId> = self.in_flight.values().map(|(w, _)| *w).collect();
+        holders.len() as u32
+    }
+
     /// A job with no film, no tiles queued and nothing counted yet.
     pub(super) fn new(id: JobId, spec: JobSpec, state: JobState, now: Instant) -> Job {
         Job {

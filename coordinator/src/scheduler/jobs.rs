@@ -224,10 +224,9 @@ impl Scheduler {
                     n
                 }
                 _ => {
-                    let holders: HashSet<WorkerId> =
-                        j.in_flight.values().map(|(w, _)| *w).collect();
-                    j.holders_counted = Some((holders.len() as u32, now));
-                    holders.len() as u32
+                    let n = j.holder_count();
+                    j.holders_counted = Some((n, now));
+                    n
                 }
             };
             let update = JobUpdate::Progress { done: j.done_tiles, total, workers, stats: j.stats };

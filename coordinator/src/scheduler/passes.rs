@@ -6,7 +6,6 @@ use super::{JobUpdate, Outbox, Scheduler};
 use crate::merge::Film;
 use farm_common::film::PassEnd;
 use farm_common::ids::JobId;
-use std::collections::HashSet;
 use tracing::info;
 
 impl Scheduler {
@@ -71,13 +70,14 @@ impl Scheduler {
         j.film = Some(film);
         j.pass += 1;
         j.done_tiles = 0;
+        // The pass's last tile counted no holder; the next pass counts afresh.
+        j.holders_counted = None;
         let total = j.spec.geometry.tile_count();
         j.pending = (0..total).collect();
         j.out_order.clear();
         j.handed.clear();
-        let workers: HashSet<_> = j.in_flight.values().map(|(w, _)| *w).collect();
         let update =
-            JobUpdate::Progress { done: 0, total, workers: workers.len() as u32, stats: j.stats };
+            JobUpdate::Progress { done: 0, total, workers: j.holder_count(), stats: j.stats };
         out.notify(job, update);
     }
 }

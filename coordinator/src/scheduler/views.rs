@@ -3,9 +3,9 @@
 
 use super::job::Job;
 use super::{Outbox, Record, Scheduler};
-use farm_common::ids::{JobId, WorkerId};
+use farm_common::ids::JobId;
 use serde::Serialize;
-use std::collections::{BTreeMap, HashSet};
+use std::collections::BTreeMap;
 use std::time::Instant;
 
 /// A job as the dashboard lists it.
@@ -174,7 +174,6 @@ fn job_view(j: &Job, now: Instant, rel_mse: &mut impl FnMut(JobId) -> Option<f64
         None if running => rel_mse(j.id),
         _ => j.rel_mse,
     };
-    let holders: HashSet<WorkerId> = j.in_flight.values().map(|(w, _)| *w).collect();
     let b = j.spec.geometry.cropped_pixel_bounds;
     JobView {
         id: j.id.0,
@@ -195,7 +194,7 @@ fn job_view(j: &Job, now: Instant, rel_mse: &mut impl FnMut(JobId) -> Option<f64
         elapsed_seconds: elapsed,
         eta_seconds: eta,
         rel_mse: estimate,
-        workers: holders.len() as u32,
+        workers: j.holder_count(),
         attempts: j.attempts.values().sum(),
         retries: j.retries,
         speculated: j.speculated,

@@ -114,11 +114,9 @@ struct Capacity {
 /// The coordinator's event loop's busy seconds so far, from `/metrics`.
 async fn loop_busy(url: &str) -> Result<f64, String> {
     let addr = url.trim_start_matches("http://").to_string();
-    let text = tokio::task::spawn_blocking(move || farm_tests::http::get(&addr, "/metrics").body)
+    let (samples, _) = tokio::task::spawn_blocking(move || farm_tests::http::scrape(&addr))
         .await
-        .map_err(|e| e.to_string())?;
-    let text = String::from_utf8(text).map_err(|e| e.to_string())?;
-    let samples = farm_tests::http::parse_prometheus(&text)?;
+        .map_err(|e| e.to_string())??;
     farm_tests::http::value(&samples, "farm_event_loop_busy_seconds_total", &[])
         .ok_or_else(|| "no farm_event_loop_busy_seconds_total".to_string())
 }
@@ -306,7 +304,7 @@ pub(super) fn capacity_table(rt: &Runtime) {
          the submit call to the finished {}×{} image received by the client: tiles/s over wall \
          seconds, the coordinator's CPU a tile and its inverse, and its event loop's busy time a tile \
          (farm_event_loop_busy_seconds_total: the part done one event at a time, which \
-         more cores do not share). Job = the coordinator's CPU \
+         more cores do not share; the stall probe's events included). Job = the coordinator's CPU \
          to image less 10-90%'s cost for every tile: the job's own start and end (its film, \
          estimate and image), which grow with pixels. Stall = the longest the coordinator's \
          event loop took to answer a probe sent every 2 ms while the job ran (two events: a \

@@ -407,10 +407,11 @@ fn apply(
             )?
             .execute(params![job as i64, tile, n])?;
         }
-        Command::Merged { job, tile, film_tile, stats } => {
+        Command::Merged { job, tile, film_tile, stats } if logs.keeps() => {
             encode_tile_into(encoded, &film_tile, &stats);
             logs.append(job, tile, encoded);
         }
+        Command::Merged { .. } => {}
         Command::Ended { job, ending, image } => {
             let (state, reason) = match ending {
                 Ending::Done => ("done", None),

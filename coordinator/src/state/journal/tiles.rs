@@ -56,6 +56,11 @@ impl TileLogs {
         dir.join(format!("{job}.log"))
     }
 
+    /// Whether logs are written (there is a directory for them).
+    pub fn keeps(&self) -> bool {
+        self.dir.is_some()
+    }
+
     /// Appends tile `key` of `job` (buffered until [`TileLogs::flush`]).
     pub fn append(&mut self, job: u64, key: u32, data: &[u8]) {
         let Some(dir) = &self.dir else { return };
