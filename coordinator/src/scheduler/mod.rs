@@ -19,6 +19,8 @@ mod part_tests;
 mod pass_tests;
 mod passes;
 #[cfg(test)]
+mod progress_tests;
+#[cfg(test)]
 mod queue_tests;
 mod restore;
 #[cfg(test)]

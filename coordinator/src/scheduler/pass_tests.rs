@@ -151,33 +151,3 @@ async fn a_journalled_job_in_passes_resumes_in_its_pass_to_the_same_bits() {
     assert_eq!(f.passes.len(), 3);
     std::fs::remove_dir_all(dir).ok();
 }
-
-/// Within every pass, a progress event counts the worker that holds the
-/// pass's tiles, even when the pass before ended (counting none out) a
-/// moment earlier.
-#[test]
-fn each_pass_counts_its_holders_afresh() {
-    let mut s = Scheduler::new(SchedulerConfig::default());
-    let mut out = Recorder::default();
-    // One instant throughout: no recount is due to the clock.
-    let t0 = Instant::now();
-    s.set_virtual_time(t0);
-    s.worker_joined(WorkerId(1), "a".into(), 2, 3, t0, &mut out);
-    let job = s.submit(in_passes(&three(Some(0.0), None)), &mut out);
-    run(&mut s, &mut out);
-    let total = geometry().tile_count();
-    let during: Vec<u32> = out
-        .updates
-        .iter()
-        .filter_map(|(j, u)| match u {
-            JobUpdate::Progress { done, workers, .. }
-                if *j == job && *done > 0 && *done < total =>
-            {
-                Some(*workers)
-            }
-            _ => None,
-        })
-        .collect();
-    assert_eq!(during.len(), 3 * (total as usize - 1), "every pass reports each tile");
-    assert!(during.iter().all(|&w| w == 1), "{during:?}");
-}
