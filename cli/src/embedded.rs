@@ -115,14 +115,8 @@ struct LocalResult {
 
 /// The scheduler's way out to the in-process worker: each assignment
 /// becomes a task on the render pool, in the order assigned, once fewer
-/// than twice the pool's threads of tiles are on it.
-///
-/// Why not all at once: a tile traces its pixels on every thread, and a
-/// thread that waits for the rest of its tile's pixels takes other work
-/// meanwhile, a whole other tile if one is queued on the pool. Its own
-/// tile then ends only after that one, while later tiles end and wait
-/// for it to be merged in order: on cornell-box at 2 threads, up to 1,022
-/// of its 1,024 finished tiles waited at once, the render's peak memory.
+/// than [`farm_render::render::tiles_on_pool`] tiles are on it (not all at
+/// once: see there why).
 struct LocalOutbox<R> {
     render: Arc<R>,
     pool: Arc<rayon::ThreadPool>,
@@ -274,7 +268,7 @@ where
         cancelled: Arc::default(),
         queued: VecDeque::new(),
         on_pool: 0,
-        pool_limit: 2 * threads,
+        pool_limit: farm_render::render::tiles_on_pool(threads),
         updates: Vec::new(),
     };
     let mut sched = Scheduler::new(SchedulerConfig::default());

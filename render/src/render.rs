@@ -69,6 +69,19 @@ pub fn film_and_sampler(
     (film, filter, sampler, warnings)
 }
 
+/// How many tiles a rayon pool of `threads` threads should be given at
+/// once, when each may be [`Renderer::render_tile_parallel`]: twice its
+/// threads. A stateless sampler's tile traces its pixels on every thread,
+/// and a thread that waits for the rest of its tile takes other work
+/// meanwhile, a whole other tile if one is queued. Its own tile then ends
+/// only after that one, out of the order the film is merged in, and every
+/// tile finished behind it waits in memory (on cornell-box at 2 threads,
+/// up to 1,022 of its 1,024 tiles at once). With only the pool's threads
+/// of tiles, renders ran up to 11% slower; with twice, within noise.
+pub fn tiles_on_pool(threads: usize) -> usize {
+    2 * threads.max(1)
+}
+
 /// The generator stream of a tile's pass that starts at sample `first` (not
 /// 0). PCG32 streams whose increments differ only in high bits share the
 /// low bits of their states, and their outputs correlate; the seed is

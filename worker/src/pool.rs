@@ -4,19 +4,17 @@
 //! `cpu_bound_executor.rs` idea, with rayon instead of a second runtime).
 
 use crate::error::Error;
+use farm_render::render::tiles_on_pool;
 use std::panic::{catch_unwind, AssertUnwindSafe};
 use std::sync::Arc;
 use tokio::sync::{oneshot, Semaphore};
 
 /// A dedicated rayon pool for CPU-bound work. Clones share the pool.
 ///
-/// At most twice as many closures as it has threads are on the pool at
-/// once; the rest wait their turn on the async side. A tile traces its
-/// pixels on every thread, and a thread that waits for the rest of its
-/// tile takes other work meanwhile, a whole other tile if one is queued:
-/// its own tile then ends only after that one, out of the order the
-/// coordinator merges in, with every tile started under it holding its
-/// buffers (the embedded outbox keeps the same limit, for the same reason).
+/// At most [`farm_render::render::tiles_on_pool`] closures are on the pool
+/// at once (a tile's closure spreads its pixels over the pool: see there
+/// why); the rest wait their turn on the async side, as the embedded
+/// outbox's tiles do.
 #[derive(Clone, Debug)]
 pub struct CpuPool {
     pool: Arc<rayon::ThreadPool>,
@@ -30,7 +28,7 @@ impl CpuPool {
             .num_threads(threads)
             .thread_name(|i| format!("farm-render-{i}"))
             .build()?;
-        let turns = Arc::new(Semaphore::new(2 * pool.current_num_threads()));
+        let turns = Arc::new(Semaphore::new(tiles_on_pool(pool.current_num_threads())));
         Ok(CpuPool { pool: Arc::new(pool), turns })
     }
 
