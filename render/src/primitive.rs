@@ -119,21 +119,26 @@ impl Aggregate {
         // its barycentrics; other shapes build theirs as they are hit.
         let mut best: Option<(f32, usize, Option<[f32; 3]>)> = None;
         let tr = TriRay::new(ray);
-        self.bvh.intersect(ray, |i, r| {
-            let (t, barycentrics) = match &self.prims[i].shape {
-                Shape::Triangle { mesh, v } => {
-                    let (t, b) =
-                        Triangle { mesh, v: *v }.hit_barycentrics_prepared(r, &tr, true)?;
-                    (t, Some(b))
-                }
-                shape => {
-                    let t = shape.intersect_into(r, si)?;
-                    (t, None)
-                }
-            };
-            best = Some((t, i, barycentrics));
-            Some(t)
-        });
+        self.bvh.intersect(
+            ray,
+            // Inlined into each compiled form of the walk (SSE, AVX).
+            #[inline(always)]
+            |i, r| {
+                let (t, barycentrics) = match &self.prims[i].shape {
+                    Shape::Triangle { mesh, v } => {
+                        let (t, b) =
+                            Triangle { mesh, v: *v }.hit_barycentrics_prepared(r, &tr, true)?;
+                        (t, Some(b))
+                    }
+                    shape => {
+                        let t = shape.intersect_into(r, si)?;
+                        (t, None)
+                    }
+                };
+                best = Some((t, i, barycentrics));
+                Some(t)
+            },
+        );
         let (t, i, barycentrics) = best?;
         let prim = &self.prims[i];
         if let Some(b) = barycentrics {

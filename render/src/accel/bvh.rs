@@ -6,15 +6,28 @@
 //! Accelerator "bvh" "integer maxnodeprims" 4
 //! ```
 //!
-//! The binary tree pbrt-v3 builds is then collapsed into 4-wide nodes, whose
-//! four child boxes one vectorised slab test checks at once. Closest-hit
+//! The binary tree pbrt-v3 builds is then collapsed into 8-wide nodes, whose
+//! eight child boxes one vectorised slab test checks at once (AVX where the
+//! CPU has it, two SSE halves where not; the same tree and bits on every
+//! host, see `node.rs`). Closest-hit
 //! traversal visits the children hit nearest first and drops any whose
 //! entry lies beyond the closest hit found so far; shadow rays stop at the
 //! first blocker. On a 100k-triangle mesh (`cargo bench -p farm-render
-//! --bench kernels -- bvh::`) this made camera rays 2.4× and shadow rays
-//! 3.4× faster than the binary tree.
+//! --bench kernels -- bvh::`) 4-wide nodes made camera rays 2.4× and shadow
+//! rays 3.4× faster than the binary tree, and 8-wide ones in AVX another
+//! 13–15% (any hit 1.15–1.26 → 1.01–1.02 ms, closest hit 0.87–0.89 →
+//! 0.75–0.76 ms).
 
-use super::node4::{Node4, SlabRay, WIDTH};
+#[cfg(target_arch = "x86_64")]
+use super::node::Avx;
+use super::node::{simd, BoxTest, Node, Simd, SlabRay, WIDTH};
+
+/// The box test of the walks compiled into their callers: SSE on x86-64
+/// (AVX is a walk of its own, see [`Bvh::intersect`]).
+#[cfg(target_arch = "x86_64")]
+type Inline = super::node::Sse;
+#[cfg(not(target_arch = "x86_64"))]
+type Inline = super::node::Portable;
 use super::sah::{build_node, Extent, Limits, PrimInfo, COSTLY};
 use farm_common::geometry::{Bounds3f, Ray, Vec3};
 use std::mem::MaybeUninit;
@@ -53,9 +66,35 @@ impl LinearNode {
     }
 }
 
-/// Depth of the traversal stack: a node pops one entry and pushes at most
-/// [`WIDTH`], and the 4-wide tree is no deeper than the binary one.
+/// Depth of the traversal stack that holds for any tree: a node pops one
+/// entry and pushes at most [`WIDTH`], and the wide tree is no deeper than
+/// the binary one.
 const WIDE_STACK_SIZE: usize = (WIDTH - 1) * STACK_SIZE + 1;
+
+/// Depth of the closest-hit walk's stack for the trees that need no more
+/// ([`Bvh::stack_need`]): nearly all. Its 16-byte entries then take 3 KB
+/// of the caller's frame; the 7 KB that any tree may need made the
+/// compiler probe two stack pages on every call, 2% of a scene whose
+/// tree is one node (spheres-differentials).
+const SHALLOW_STACK_SIZE: usize = 2 * STACK_SIZE + 1;
+
+/// Trees of fewer nodes are walked inline in SSE, not in AVX: the call
+/// into the AVX walk cost 2–4% on scenes of a few shapes (cornell-box,
+/// veach-mis, instances), whose trees have 3–8 nodes.
+const AVX_FROM_NODES: usize = 64;
+
+/// At most how many entries a walk of the subtree at `node` holds on its
+/// stack at once, beyond the one it was popped from: it pushes at most
+/// one entry a lane, and the rest stay while it walks down an interior one.
+fn stack_need(nodes: &[Node], node: usize) -> usize {
+    let n = &nodes[node];
+    let deepest = (0..usize::from(n.n))
+        .filter(|&l| n.count[l] == 0)
+        .map(|l| stack_need(nodes, n.child[l] as usize))
+        .max()
+        .unwrap_or(0);
+    usize::from(n.n) + deepest
+}
 
 /// `items` in the order `order` gives (entry `i` is the index of the item
 /// that goes to place `i`; a permutation), moved into a new vector. The
@@ -85,22 +124,22 @@ fn build_binary(info: &mut [PrimInfo], max_prims_in_node: usize) -> Vec<LinearNo
     nodes
 }
 
-/// Collapses the binary tree `bin` into 4-wide nodes: each node takes its
+/// Collapses the binary tree `bin` into 8-wide nodes: each node takes its
 /// binary children and keeps opening the interior one with the largest
-/// surface area until it has four. The root's children fill node 0.
-fn collapse(bin: &[LinearNode]) -> Vec<Node4> {
-    // Each 4-wide node stands for at least one binary interior node; the
+/// surface area until it has eight. The root's children fill node 0.
+fn collapse(bin: &[LinearNode]) -> Vec<Node> {
+    // Each wide node stands for at least one binary interior node; the
     // capacity not used is never touched, so it takes address space but no
     // memory (and is given back once the tree is built).
     let mut out = Vec::with_capacity(bin.len() / 2 + 1);
     if !bin.is_empty() {
-        out.push(Node4 { b: [[0.0; WIDTH]; 6], child: [0; WIDTH], count: [0; WIDTH], n: 0 });
+        out.push(Node { b: [[0.0; WIDTH]; 6], child: [0; WIDTH], count: [0; WIDTH], n: 0 });
         fill(bin, 0, 0, &mut out);
     }
     out
 }
 
-fn fill(bin: &[LinearNode], b: usize, slot: usize, out: &mut Vec<Node4>) {
+fn fill(bin: &[LinearNode], b: usize, slot: usize, out: &mut Vec<Node>) {
     let mut lanes = [0usize; WIDTH];
     let mut n = if bin[b].is_leaf() {
         lanes[0] = b;
@@ -121,7 +160,7 @@ fn fill(bin: &[LinearNode], b: usize, slot: usize, out: &mut Vec<Node4>) {
         n += 1;
     }
     // Empty lanes get an empty box as well as being masked off.
-    let mut node = Node4 {
+    let mut node = Node {
         b: [
             [f32::INFINITY; WIDTH],
             [f32::INFINITY; WIDTH],
@@ -159,15 +198,15 @@ fn fill(bin: &[LinearNode], b: usize, slot: usize, out: &mut Vec<Node4>) {
 }
 
 /// A fixed-size traversal stack that is not initialised on each ray.
-struct Stack<T: Copy> {
-    items: [MaybeUninit<T>; WIDE_STACK_SIZE],
+struct Stack<T: Copy, const N: usize> {
+    items: [MaybeUninit<T>; N],
     len: usize,
 }
 
-impl<T: Copy> Stack<T> {
+impl<T: Copy, const N: usize> Stack<T, N> {
     #[inline(always)]
     fn new() -> Self {
-        Stack { items: [const { MaybeUninit::uninit() }; WIDE_STACK_SIZE], len: 0 }
+        Stack { items: [const { MaybeUninit::uninit() }; N], len: 0 }
     }
 
     #[inline(always)]
@@ -189,7 +228,7 @@ impl<T: Copy> Stack<T> {
 
 /// Asks for node `i`'s cache lines ahead of its visit (a hint only).
 #[inline(always)]
-fn prefetch_node(nodes: &[Node4], i: u32) {
+fn prefetch_node(nodes: &[Node], i: u32) {
     farm_common::prefetch(nodes.get(i as usize..=i as usize).unwrap_or_default());
 }
 
@@ -198,8 +237,13 @@ fn prefetch_node(nodes: &[Node4], i: u32) {
 /// [`Bvh::intersect`] and [`Bvh::intersect_any`].
 #[derive(Clone, Debug, Default)]
 pub struct Bvh {
-    nodes: Vec<Node4>,
+    nodes: Vec<Node>,
     bounds: Bounds3f,
+    /// The tree may need more than [`SHALLOW_STACK_SIZE`] stack entries.
+    deep: bool,
+    /// Walk in AVX ([`Bvh::intersect`] says when): decided at the build,
+    /// from [`simd`], so that a ray pays one test for it.
+    avx: bool,
 }
 
 impl Bvh {
@@ -209,7 +253,7 @@ impl Bvh {
     /// `max_prims_in_node`; the others keep a box each where pbrt-v3's SAH
     /// gives them one. Once the tree is built, its order is kept (4 bytes
     /// an item), the build's [`PrimInfo`]s freed and the binary tree
-    /// collapsed into the 4-wide one and freed, and only then are the items
+    /// collapsed into the 8-wide one and freed, and only then are the items
     /// gathered into their new order: the second copy of the items is
     /// never held beside the build records, so the build's peak stays the
     /// SAH's (items, records and binary nodes).
@@ -255,14 +299,18 @@ impl Bvh {
         (Bvh::collapsed(nodes), order)
     }
 
-    /// The 4-wide hierarchy of the binary tree `nodes`, which it frees
+    /// The 8-wide hierarchy of the binary tree `nodes`, which it frees
     /// before returning.
     fn collapsed(nodes: Vec<LinearNode>) -> Bvh {
         let bounds = nodes.first().map_or(Bounds3f::default(), LinearNode::bounds);
         let mut wide = collapse(&nodes);
         drop(nodes);
         wide.shrink_to_fit();
-        Bvh { nodes: wide, bounds }
+        let deep = !wide.is_empty() && 1 + stack_need(&wide, 0) > SHALLOW_STACK_SIZE;
+        // A small tree is walked inline in SSE: the call into the AVX walk
+        // costs more than it saves there.
+        let avx = simd() == Simd::Avx && wide.len() >= AVX_FROM_NODES;
+        Bvh { nodes: wide, bounds, deep, avx }
     }
 
     /// Bounds of everything (empty for an empty hierarchy).
@@ -270,7 +318,7 @@ impl Bvh {
         self.bounds
     }
 
-    /// Number of (4-wide) nodes.
+    /// Number of (8-wide) nodes.
     pub fn node_count(&self) -> usize {
         self.nodes.len()
     }
@@ -281,17 +329,93 @@ impl Bvh {
     /// which the ray passed on is shortened to `t`. Returns whether
     /// anything was hit; the caller's closure keeps the hit itself.
     #[inline]
-    pub fn intersect<F: FnMut(usize, &Ray) -> Option<f32>>(&self, ray: &Ray, mut f: F) -> bool {
+    pub fn intersect<F: FnMut(usize, &Ray) -> Option<f32>>(&self, ray: &Ray, f: F) -> bool {
         if self.nodes.is_empty() {
             return false;
         }
+        // In AVX where the CPU has it and the tree is more than one node,
+        // else inline. A deep tree, which few are, is walked in SSE with a
+        // stack that any tree fits. Every path gives the same bits.
+        if self.nodes.len() == 1 {
+            return self.closest_one_node(ray, f);
+        }
+        if self.deep {
+            return self.closest_deep(ray, f);
+        }
+        #[cfg(target_arch = "x86_64")]
+        if self.avx {
+            // SAFETY: `avx` is set only where `simd` found AVX.
+            return unsafe { self.closest_avx(ray, f) };
+        }
+        self.closest::<Inline, SHALLOW_STACK_SIZE, F>(ray, f)
+    }
+
+    /// [`Bvh::closest`] on a tree of one node, whose children are all
+    /// leaves (a scene of a few shapes): the leaves hit, nearest first, with
+    /// no stack. The order is [`Bvh::closest`]'s, ties included (the higher
+    /// lane first), so the hits are the same.
+    #[inline(always)]
+    fn closest_one_node<F: FnMut(usize, &Ray) -> Option<f32>>(&self, ray: &Ray, mut f: F) -> bool {
+        let node = &self.nodes[0];
+        let mut shortened = *ray;
+        let mut hit = false;
+        let (mut mask, t) = Inline::hit(node, &SlabRay::new(ray), ray.t_max);
+        while mask != 0 {
+            let (mut l, mut rest) = (mask.trailing_zeros() as usize, mask & (mask - 1));
+            while rest != 0 {
+                let m = rest.trailing_zeros() as usize;
+                rest &= rest - 1;
+                if t[m] <= t[l] {
+                    l = m;
+                }
+            }
+            mask &= !(1 << l);
+            // Every leaf left is at least this far.
+            if t[l] >= shortened.t_max {
+                break;
+            }
+            let start = node.child[l] as usize;
+            for i in start..start + usize::from(node.count[l]) {
+                if let Some(t) = f(i, &shortened) {
+                    hit = true;
+                    if t < shortened.t_max {
+                        shortened.t_max = t;
+                    }
+                }
+            }
+        }
+        hit
+    }
+
+    /// [`Bvh::closest`] for a deep tree, not inlined: its stack would
+    /// take the caller's frame past the size that makes it probe pages.
+    #[inline(never)]
+    fn closest_deep<F: FnMut(usize, &Ray) -> Option<f32>>(&self, ray: &Ray, f: F) -> bool {
+        self.closest::<Inline, WIDE_STACK_SIZE, F>(ray, f)
+    }
+
+    /// [`Bvh::closest`] compiled for AVX, for a tree that is not deep.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx")]
+    unsafe fn closest_avx<F: FnMut(usize, &Ray) -> Option<f32>>(&self, ray: &Ray, f: F) -> bool {
+        self.closest::<Avx, SHALLOW_STACK_SIZE, F>(ray, f)
+    }
+
+    /// [`Bvh::intersect`]'s walk with the box test `T` and a stack of `N`
+    /// entries, which the tree must not need more of.
+    #[inline(always)]
+    fn closest<T: BoxTest, const N: usize, F: FnMut(usize, &Ray) -> Option<f32>>(
+        &self,
+        ray: &Ray,
+        mut f: F,
+    ) -> bool {
         let r = SlabRay::new(ray);
         let mut shortened = *ray;
         let mut hit = false;
         // Entries: child and leaf primitive count (0 for a node) in one
         // word, and the entry distance: written and read in the same
         // widths, so a pop soon after a push is served by the store.
-        let mut stack: Stack<(u64, f32)> = Stack::new();
+        let mut stack: Stack<(u64, f32), N> = Stack::new();
         // The nearest child hit is visited next without going through the stack.
         let mut next = Some((0u64, f32::NEG_INFINITY));
         while let Some((entry, t_near)) = next.take().or_else(|| stack.pop()) {
@@ -312,7 +436,7 @@ impl Bvh {
                 continue;
             }
             let node = &self.nodes[child as usize];
-            let (mut mask, t) = node.hit(&r, shortened.t_max);
+            let (mut mask, t) = T::hit(node, &r, shortened.t_max);
             // The children hit, farthest first, so that the nearest is
             // popped next: an insertion sort whose entries and distances
             // are kept apart, so each is moved in the width it was written.
@@ -349,16 +473,34 @@ impl Bvh {
     /// Any hit: like [`Bvh::intersect`] but stops at the first primitive
     /// for which `f` returns `true` (shadow rays), in no particular order.
     #[inline(always)]
-    pub fn intersect_any<F: FnMut(usize, &Ray) -> bool>(&self, ray: &Ray, mut f: F) -> bool {
+    pub fn intersect_any<F: FnMut(usize, &Ray) -> bool>(&self, ray: &Ray, f: F) -> bool {
         if self.nodes.is_empty() {
             return false;
         }
+        #[cfg(target_arch = "x86_64")]
+        if self.avx {
+            // SAFETY: `avx` is set only where `simd` found AVX.
+            return unsafe { self.any_avx(ray, f) };
+        }
+        self.any::<Inline, F>(ray, f)
+    }
+
+    /// [`Bvh::any`] compiled for AVX.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx")]
+    unsafe fn any_avx<F: FnMut(usize, &Ray) -> bool>(&self, ray: &Ray, f: F) -> bool {
+        self.any::<Avx, F>(ray, f)
+    }
+
+    /// [`Bvh::intersect_any`]'s walk with the box test `T`.
+    #[inline(always)]
+    fn any<T: BoxTest, F: FnMut(usize, &Ray) -> bool>(&self, ray: &Ray, mut f: F) -> bool {
         let r = SlabRay::new(ray);
-        let mut stack: Stack<u32> = Stack::new();
+        let mut stack: Stack<u32, WIDE_STACK_SIZE> = Stack::new();
         stack.push(0);
         while let Some(n) = stack.pop() {
             let node = &self.nodes[n as usize];
-            let (mut mask, _) = node.hit(&r, ray.t_max);
+            let (mut mask, _) = T::hit(node, &r, ray.t_max);
             while mask != 0 {
                 let l = mask.trailing_zeros() as usize;
                 mask &= mask - 1;

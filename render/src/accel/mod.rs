@@ -2,10 +2,11 @@
 //! a `"kdtree"` accelerator in a scene is built as a BVH too.
 
 mod bvh;
-mod node4;
+mod node;
 mod sah;
 
 pub use bvh::{Bvh, DEFAULT_MAX_PRIMS_IN_NODE};
+pub use node::{detected_simd, force_simd, simd, Simd};
 
 use farm_common::scene::{Entity, Params, Warning};
 

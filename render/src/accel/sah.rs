@@ -173,7 +173,7 @@ pub(super) fn build_node(
     }
     // A subtree of at most `max_prims` cheap primitives (the SAH mostly
     // splits down to one a leaf) becomes one leaf: its primitives are now
-    // in the order pbrt-v3's splits put them, and the 4-wide tree tests
+    // in the order pbrt-v3's splits put them, and the 8-wide tree tests
     // them together rather than boxing each. For a mesh, a quarter of the
     // nodes and half the build's memory. Costly shapes (spheres, curves)
     // keep their own boxes, which cull most of their tests.
