@@ -28,6 +28,7 @@ use super::node::{simd, BoxTest, Node, Simd, SlabRay, WIDTH};
 type Inline = super::node::Sse;
 #[cfg(not(target_arch = "x86_64"))]
 type Inline = super::node::Portable;
+use super::collapse::{collapse, stack_need};
 use super::sah::{build_node, Extent, Limits, PrimInfo, COSTLY};
 use farm_common::geometry::{Bounds3f, Ray, Vec3};
 use std::mem::MaybeUninit;
@@ -57,11 +58,11 @@ impl LinearNode {
         LinearNode { b: [bounds.min.to_array(), bounds.max.to_array()], offset, n_prims }
     }
 
-    fn bounds(&self) -> Bounds3f {
+    pub(super) fn bounds(&self) -> Bounds3f {
         Bounds3f { min: Vec3::from(self.b[0]), max: Vec3::from(self.b[1]) }
     }
 
-    fn is_leaf(&self) -> bool {
+    pub(super) fn is_leaf(&self) -> bool {
         self.n_prims > 0
     }
 }
@@ -72,29 +73,15 @@ impl LinearNode {
 const WIDE_STACK_SIZE: usize = (WIDTH - 1) * STACK_SIZE + 1;
 
 /// Depth of the closest-hit walk's stack for the trees that need no more
-/// ([`Bvh::stack_need`]): nearly all. Its 16-byte entries then take 3 KB
-/// of the caller's frame; the 7 KB that any tree may need made the
-/// compiler probe two stack pages on every call, 2% of a scene whose
-/// tree is one node (spheres-differentials).
+/// ([`stack_need`]): nearly all (killeroo's needs 68). Its 16-byte entries
+/// then take 2 KB of the caller's frame; the 7 KB that any tree may need
+/// made the compiler probe two stack pages on every call.
 const SHALLOW_STACK_SIZE: usize = 2 * STACK_SIZE + 1;
 
 /// Trees of fewer nodes are walked inline in SSE, not in AVX: the call
 /// into the AVX walk cost 2–4% on scenes of a few shapes (cornell-box,
 /// veach-mis, instances), whose trees have 3–8 nodes.
 const AVX_FROM_NODES: usize = 64;
-
-/// At most how many entries a walk of the subtree at `node` holds on its
-/// stack at once, beyond the one it was popped from: it pushes at most
-/// one entry a lane, and the rest stay while it walks down an interior one.
-fn stack_need(nodes: &[Node], node: usize) -> usize {
-    let n = &nodes[node];
-    let deepest = (0..usize::from(n.n))
-        .filter(|&l| n.count[l] == 0)
-        .map(|l| stack_need(nodes, n.child[l] as usize))
-        .max()
-        .unwrap_or(0);
-    usize::from(n.n) + deepest
-}
 
 /// `items` in the order `order` gives (entry `i` is the index of the item
 /// that goes to place `i`; a permutation), moved into a new vector. The
@@ -122,79 +109,6 @@ fn build_binary(info: &mut [PrimInfo], max_prims_in_node: usize) -> Vec<LinearNo
         build_node(info, 0, 0, &limits, ext, &mut nodes);
     }
     nodes
-}
-
-/// Collapses the binary tree `bin` into 8-wide nodes: each node takes its
-/// binary children and keeps opening the interior one with the largest
-/// surface area until it has eight. The root's children fill node 0.
-fn collapse(bin: &[LinearNode]) -> Vec<Node> {
-    // Each wide node stands for at least one binary interior node; the
-    // capacity not used is never touched, so it takes address space but no
-    // memory (and is given back once the tree is built).
-    let mut out = Vec::with_capacity(bin.len() / 2 + 1);
-    if !bin.is_empty() {
-        out.push(Node { b: [[0.0; WIDTH]; 6], child: [0; WIDTH], count: [0; WIDTH], n: 0 });
-        fill(bin, 0, 0, &mut out);
-    }
-    out
-}
-
-fn fill(bin: &[LinearNode], b: usize, slot: usize, out: &mut Vec<Node>) {
-    let mut lanes = [0usize; WIDTH];
-    let mut n = if bin[b].is_leaf() {
-        lanes[0] = b;
-        1
-    } else {
-        lanes[..2].copy_from_slice(&[b + 1, bin[b].offset as usize]);
-        2
-    };
-    while n < WIDTH {
-        let widest = (0..n).filter(|&l| !bin[lanes[l]].is_leaf()).max_by(|&x, &y| {
-            let (ax, ay) = (bin[lanes[x]].bounds(), bin[lanes[y]].bounds());
-            ax.surface_area().total_cmp(&ay.surface_area())
-        });
-        let Some(l) = widest else { break };
-        let c = lanes[l];
-        lanes[l] = c + 1;
-        lanes[n] = bin[c].offset as usize;
-        n += 1;
-    }
-    // Empty lanes get an empty box as well as being masked off.
-    let mut node = Node {
-        b: [
-            [f32::INFINITY; WIDTH],
-            [f32::INFINITY; WIDTH],
-            [f32::INFINITY; WIDTH],
-            [f32::NEG_INFINITY; WIDTH],
-            [f32::NEG_INFINITY; WIDTH],
-            [f32::NEG_INFINITY; WIDTH],
-        ],
-        child: [0; WIDTH],
-        count: [0; WIDTH],
-        n: n as u8,
-    };
-    let mut interior = [(0, 0); WIDTH];
-    let mut n_interior = 0;
-    for (l, &c) in lanes[..n].iter().enumerate() {
-        let bn = &bin[c];
-        for axis in 0..3 {
-            node.b[axis][l] = bn.b[0][axis];
-            node.b[3 + axis][l] = bn.b[1][axis];
-        }
-        if bn.is_leaf() {
-            node.child[l] = bn.offset;
-            node.count[l] = bn.n_prims as u8;
-        } else {
-            node.child[l] = out.len() as u32;
-            interior[n_interior] = (c, out.len());
-            n_interior += 1;
-            out.push(node);
-        }
-    }
-    out[slot] = node;
-    for &(c, s) in &interior[..n_interior] {
-        fill(bin, c, s, out);
-    }
 }
 
 /// A fixed-size traversal stack that is not initialised on each ray.

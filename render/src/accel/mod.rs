@@ -2,6 +2,7 @@
 //! a `"kdtree"` accelerator in a scene is built as a BVH too.
 
 mod bvh;
+mod collapse;
 mod node;
 mod sah;
 
