@@ -391,12 +391,34 @@ impl Bvh {
         if self.nodes.is_empty() {
             return false;
         }
+        if self.nodes.len() == 1 {
+            return self.any_one_node(ray, f);
+        }
         #[cfg(target_arch = "x86_64")]
         if self.avx {
             // SAFETY: `avx` is set only where `simd` found AVX.
             return unsafe { self.any_avx(ray, f) };
         }
         self.any::<Inline, F>(ray, f)
+    }
+
+    /// [`Bvh::any`] on a tree of one node, whose children are all leaves:
+    /// the leaves hit, in lane order as there, with no stack.
+    #[inline(always)]
+    fn any_one_node<F: FnMut(usize, &Ray) -> bool>(&self, ray: &Ray, mut f: F) -> bool {
+        let node = &self.nodes[0];
+        let (mut mask, _) = Inline::hit(node, &SlabRay::new(ray), ray.t_max);
+        while mask != 0 {
+            let l = mask.trailing_zeros() as usize;
+            mask &= mask - 1;
+            let start = node.child[l] as usize;
+            for i in start..start + usize::from(node.count[l]) {
+                if f(i, ray) {
+                    return true;
+                }
+            }
+        }
+        false
     }
 
     /// [`Bvh::any`] compiled for AVX.
@@ -441,3 +463,7 @@ impl Bvh {
 #[cfg(test)]
 #[path = "bvh_tests.rs"]
 mod tests;
+
+#[cfg(test)]
+#[path = "walk_tests.rs"]
+mod walk_tests;
