@@ -15,8 +15,8 @@
 //! first blocker. On a 100k-triangle mesh (`cargo bench -p farm-render
 //! --bench kernels -- bvh::`) 4-wide nodes made camera rays 2.4× and shadow
 //! rays 3.4× faster than the binary tree, and 8-wide ones in AVX another
-//! 13–15% (any hit 1.15–1.26 → 1.01–1.02 ms, closest hit 0.87–0.89 →
-//! 0.75–0.76 ms).
+//! 12–19% (any hit 1.13–1.26 → 1.01–1.02 ms, closest hit 0.86–0.89 →
+//! 0.75–0.77 ms).
 
 #[cfg(target_arch = "x86_64")]
 use super::node::Avx;
@@ -73,7 +73,8 @@ impl LinearNode {
 const WIDE_STACK_SIZE: usize = (WIDTH - 1) * STACK_SIZE + 1;
 
 /// Depth of the closest-hit walk's stack for the trees that need no more
-/// ([`stack_need`]): nearly all (killeroo's needs 68). Its 16-byte entries
+/// by [`stack_need`]'s bound: nearly all (every shared scene's tree needs
+/// under 70). Its 16-byte entries
 /// then take 2 KB of the caller's frame; the 7 KB that any tree may need
 /// made the compiler probe two stack pages on every call.
 const SHALLOW_STACK_SIZE: usize = 2 * STACK_SIZE + 1;
@@ -111,6 +112,32 @@ fn build_binary(info: &mut [PrimInfo], max_prims_in_node: usize) -> Vec<LinearNo
     nodes
 }
 
+/// Tests a leaf's primitives `prims` for the closest hit, shortening
+/// `ray` to each hit; returns whether any was hit.
+#[inline(always)]
+fn closest_in_leaf<F: FnMut(usize, &Ray) -> Option<f32>>(
+    prims: std::ops::Range<usize>,
+    ray: &mut Ray,
+    f: &mut F,
+) -> bool {
+    let mut hit = false;
+    for i in prims {
+        if let Some(t) = f(i, ray) {
+            hit = true;
+            if t < ray.t_max {
+                ray.t_max = t;
+            }
+        }
+    }
+    hit
+}
+
+#[cfg(test)]
+thread_local! {
+    /// The most entries a stack of this thread has held (tests only).
+    static STACK_PEAK: std::cell::Cell<usize> = const { std::cell::Cell::new(0) };
+}
+
 /// A fixed-size traversal stack that is not initialised on each ray.
 struct Stack<T: Copy, const N: usize> {
     items: [MaybeUninit<T>; N],
@@ -125,8 +152,11 @@ impl<T: Copy, const N: usize> Stack<T, N> {
 
     #[inline(always)]
     fn push(&mut self, v: T) {
+        // Indexed, so a stack too small for its tree panics.
         self.items[self.len] = MaybeUninit::new(v);
         self.len += 1;
+        #[cfg(test)]
+        STACK_PEAK.with(|p| p.set(p.get().max(self.len)));
     }
 
     #[inline(always)]
@@ -157,6 +187,7 @@ pub struct Bvh {
     deep: bool,
     /// Walk in AVX ([`Bvh::intersect`] says when): decided at the build,
     /// from [`simd`], so that a ray pays one test for it.
+    #[cfg_attr(not(target_arch = "x86_64"), allow(dead_code))]
     avx: bool,
 }
 
@@ -220,7 +251,7 @@ impl Bvh {
         let mut wide = collapse(&nodes);
         drop(nodes);
         wide.shrink_to_fit();
-        let deep = !wide.is_empty() && 1 + stack_need(&wide, 0) > SHALLOW_STACK_SIZE;
+        let deep = !wide.is_empty() && stack_need(&wide, 0) > SHALLOW_STACK_SIZE;
         // A small tree is walked inline in SSE: the call into the AVX walk
         // costs more than it saves there.
         let avx = simd() == Simd::Avx && wide.len() >= AVX_FROM_NODES;
@@ -247,9 +278,10 @@ impl Bvh {
         if self.nodes.is_empty() {
             return false;
         }
-        // In AVX where the CPU has it and the tree is more than one node,
-        // else inline. A deep tree, which few are, is walked in SSE with a
-        // stack that any tree fits. Every path gives the same bits.
+        // A tree of one node without a stack; a deep tree, which few are,
+        // in SSE with a stack that any tree fits; a tree of at least
+        // `AVX_FROM_NODES` in AVX where the CPU has it; the rest inline.
+        // Every path gives the same bits.
         if self.nodes.len() == 1 {
             return self.closest_one_node(ray, f);
         }
@@ -261,7 +293,7 @@ impl Bvh {
             // SAFETY: `avx` is set only where `simd` found AVX.
             return unsafe { self.closest_avx(ray, f) };
         }
-        self.closest::<Inline, SHALLOW_STACK_SIZE, F>(ray, f)
+        self.closest::<_, SHALLOW_STACK_SIZE, _>(Inline::default(), ray, f)
     }
 
     /// [`Bvh::closest`] on a tree of one node, whose children are all
@@ -273,7 +305,7 @@ impl Bvh {
         let node = &self.nodes[0];
         let mut shortened = *ray;
         let mut hit = false;
-        let (mut mask, t) = Inline::hit(node, &SlabRay::new(ray), ray.t_max);
+        let (mut mask, t) = Inline::default().hit(node, &SlabRay::new(ray), ray.t_max);
         while mask != 0 {
             let (mut l, mut rest) = (mask.trailing_zeros() as usize, mask & (mask - 1));
             while rest != 0 {
@@ -289,14 +321,8 @@ impl Bvh {
                 break;
             }
             let start = node.child[l] as usize;
-            for i in start..start + usize::from(node.count[l]) {
-                if let Some(t) = f(i, &shortened) {
-                    hit = true;
-                    if t < shortened.t_max {
-                        shortened.t_max = t;
-                    }
-                }
-            }
+            hit |=
+                closest_in_leaf(start..start + usize::from(node.count[l]), &mut shortened, &mut f);
         }
         hit
     }
@@ -305,14 +331,15 @@ impl Bvh {
     /// take the caller's frame past the size that makes it probe pages.
     #[inline(never)]
     fn closest_deep<F: FnMut(usize, &Ray) -> Option<f32>>(&self, ray: &Ray, f: F) -> bool {
-        self.closest::<Inline, WIDE_STACK_SIZE, F>(ray, f)
+        self.closest::<_, WIDE_STACK_SIZE, _>(Inline::default(), ray, f)
     }
 
     /// [`Bvh::closest`] compiled for AVX, for a tree that is not deep.
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx")]
     unsafe fn closest_avx<F: FnMut(usize, &Ray) -> Option<f32>>(&self, ray: &Ray, f: F) -> bool {
-        self.closest::<Avx, SHALLOW_STACK_SIZE, F>(ray, f)
+        // SAFETY: the caller's contract: the CPU has AVX.
+        self.closest::<_, SHALLOW_STACK_SIZE, _>(unsafe { Avx::new_unchecked() }, ray, f)
     }
 
     /// [`Bvh::intersect`]'s walk with the box test `T` and a stack of `N`
@@ -320,6 +347,7 @@ impl Bvh {
     #[inline(always)]
     fn closest<T: BoxTest, const N: usize, F: FnMut(usize, &Ray) -> Option<f32>>(
         &self,
+        test: T,
         ray: &Ray,
         mut f: F,
     ) -> bool {
@@ -339,18 +367,15 @@ impl Bvh {
             }
             let (child, count) = (entry as u32, (entry >> 32) as u32);
             if count > 0 {
-                for i in child as usize..(child + count) as usize {
-                    if let Some(t) = f(i, &shortened) {
-                        hit = true;
-                        if t < shortened.t_max {
-                            shortened.t_max = t;
-                        }
-                    }
-                }
+                hit |= closest_in_leaf(
+                    child as usize..(child + count) as usize,
+                    &mut shortened,
+                    &mut f,
+                );
                 continue;
             }
             let node = &self.nodes[child as usize];
-            let (mut mask, t) = T::hit(node, &r, shortened.t_max);
+            let (mut mask, t) = test.hit(node, &r, shortened.t_max);
             // The children hit, farthest first, so that the nearest is
             // popped next: an insertion sort whose entries and distances
             // are kept apart, so each is moved in the width it was written.
@@ -399,7 +424,7 @@ impl Bvh {
             // SAFETY: `avx` is set only where `simd` found AVX.
             return unsafe { self.any_avx(ray, f) };
         }
-        self.any::<Inline, F>(ray, f)
+        self.any(Inline::default(), ray, f)
     }
 
     /// [`Bvh::any`] on a tree of one node, whose children are all leaves:
@@ -407,7 +432,7 @@ impl Bvh {
     #[inline(always)]
     fn any_one_node<F: FnMut(usize, &Ray) -> bool>(&self, ray: &Ray, mut f: F) -> bool {
         let node = &self.nodes[0];
-        let (mut mask, _) = Inline::hit(node, &SlabRay::new(ray), ray.t_max);
+        let (mut mask, _) = Inline::default().hit(node, &SlabRay::new(ray), ray.t_max);
         while mask != 0 {
             let l = mask.trailing_zeros() as usize;
             mask &= mask - 1;
@@ -425,18 +450,19 @@ impl Bvh {
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx")]
     unsafe fn any_avx<F: FnMut(usize, &Ray) -> bool>(&self, ray: &Ray, f: F) -> bool {
-        self.any::<Avx, F>(ray, f)
+        // SAFETY: the caller's contract: the CPU has AVX.
+        self.any(unsafe { Avx::new_unchecked() }, ray, f)
     }
 
     /// [`Bvh::intersect_any`]'s walk with the box test `T`.
     #[inline(always)]
-    fn any<T: BoxTest, F: FnMut(usize, &Ray) -> bool>(&self, ray: &Ray, mut f: F) -> bool {
+    fn any<T: BoxTest, F: FnMut(usize, &Ray) -> bool>(&self, test: T, ray: &Ray, mut f: F) -> bool {
         let r = SlabRay::new(ray);
         let mut stack: Stack<u32, WIDE_STACK_SIZE> = Stack::new();
         stack.push(0);
         while let Some(n) = stack.pop() {
             let node = &self.nodes[n as usize];
-            let (mut mask, _) = T::hit(node, &r, ray.t_max);
+            let (mut mask, _) = test.hit(node, &r, ray.t_max);
             while mask != 0 {
                 let l = mask.trailing_zeros() as usize;
                 mask &= mask - 1;

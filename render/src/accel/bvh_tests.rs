@@ -47,7 +47,7 @@ impl Prim {
     }
 }
 
-fn v(rng: &mut Rng, s: f32) -> Vec3 {
+pub(super) fn v(rng: &mut Rng, s: f32) -> Vec3 {
     Vec3::new(rng.uniform_f32(), rng.uniform_f32(), rng.uniform_f32()) * 2.0 * s - Vec3::splat(s)
 }
 

@@ -77,9 +77,10 @@ fn fill(bin: &[LinearNode], b: usize, slot: usize, out: &mut Vec<Node>) {
     }
 }
 
-/// At most how many entries a walk of the subtree at `node` holds on its
-/// stack at once, beyond the one it was popped from: it pushes at most
-/// one entry a lane, and the rest stay while it walks down an interior one.
+/// At most how many entries the closest-hit walk of the subtree at `node`
+/// holds on its stack at once, beyond those there when it got to `node`:
+/// of the lanes hit it pushes all but the nearest, which it walks next,
+/// and they stay while it walks down an interior one.
 pub(super) fn stack_need(nodes: &[Node], node: usize) -> usize {
     let n = &nodes[node];
     let deepest = (0..usize::from(n.n))
@@ -87,5 +88,5 @@ pub(super) fn stack_need(nodes: &[Node], node: usize) -> usize {
         .map(|l| stack_need(nodes, n.child[l] as usize))
         .max()
         .unwrap_or(0);
-    usize::from(n.n) + deepest
+    usize::from(n.n).saturating_sub(1) + deepest
 }

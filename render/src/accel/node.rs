@@ -84,23 +84,28 @@ pub fn detected_simd() -> Simd {
     Simd::Portable
 }
 
-/// The box test the BVHs built from now on use: the CPU's best unless
-/// [`force_simd`] chose another.
-#[inline(always)]
+/// The box test of the BVHs built from now on (those walked in a vector
+/// test of their own: see [`super::Bvh::intersect`]): the CPU's best
+/// unless [`force_simd`] chose another.
 pub fn simd() -> Simd {
-    match SIMD.load(Ordering::Relaxed) {
+    let v = match SIMD.load(Ordering::Relaxed) {
         0 => {
-            let s = detected_simd();
-            let _ = SIMD.compare_exchange(0, 1 + s as u8, Ordering::Relaxed, Ordering::Relaxed);
-            simd()
+            let s = 1 + detected_simd() as u8;
+            // Another thread may have set it first (forced, or the same).
+            match SIMD.compare_exchange(0, s, Ordering::Relaxed, Ordering::Relaxed) {
+                Ok(_) => s,
+                Err(v) => v,
+            }
         }
-        v => LEVELS[(v - 1) as usize],
-    }
+        v => v,
+    };
+    LEVELS[usize::from(v - 1)]
 }
 
-/// Makes every BVH built from now on in this process use `level` (the
-/// CPU's best for `None`), so that tests can compare each path's bits.
-/// Returns `false`, changing nothing, when this CPU cannot run `level`.
+/// Makes the BVHs built from now on in this process use `level` (the
+/// CPU's best for `None`) where [`simd`] decides, so that tests can
+/// compare each path's bits. Returns `false`, changing nothing, when this
+/// CPU cannot run `level`.
 pub fn force_simd(level: Option<Simd>) -> bool {
     let best = detected_simd();
     let level = level.unwrap_or(best);
@@ -117,25 +122,38 @@ pub fn force_simd(level: Option<Simd>) -> bool {
 }
 
 /// A box test: one of [`Node`]'s, chosen at compile time inside each
-/// traversal loop.
-pub(super) trait BoxTest {
-    fn hit(node: &Node, r: &SlabRay, ray_t_max: f32) -> (u32, [f32; WIDTH]);
+/// traversal loop. A value of the type is the right to run it.
+pub(super) trait BoxTest: Copy {
+    fn hit(self, node: &Node, r: &SlabRay, ray_t_max: f32) -> (u32, [f32; WIDTH]);
 }
 
 /// [`Node::hit_portable`].
 #[cfg(not(target_arch = "x86_64"))]
+#[derive(Clone, Copy, Default)]
 pub(super) struct Portable;
 /// [`Node::hit_sse`].
 #[cfg(target_arch = "x86_64")]
+#[derive(Clone, Copy, Default)]
 pub(super) struct Sse;
-/// [`Node::hit_avx`].
+/// [`Node::hit_avx`]; made only by [`Avx::new_unchecked`], so safe code
+/// cannot run it on a CPU without AVX.
 #[cfg(target_arch = "x86_64")]
-pub(super) struct Avx;
+#[derive(Clone, Copy)]
+pub(super) struct Avx(());
+
+#[cfg(target_arch = "x86_64")]
+impl Avx {
+    /// # Safety
+    /// The CPU must have AVX.
+    pub(super) unsafe fn new_unchecked() -> Self {
+        Avx(())
+    }
+}
 
 #[cfg(not(target_arch = "x86_64"))]
 impl BoxTest for Portable {
     #[inline(always)]
-    fn hit(node: &Node, r: &SlabRay, ray_t_max: f32) -> (u32, [f32; WIDTH]) {
+    fn hit(self, node: &Node, r: &SlabRay, ray_t_max: f32) -> (u32, [f32; WIDTH]) {
         node.hit_portable(r, ray_t_max)
     }
 }
@@ -143,19 +161,17 @@ impl BoxTest for Portable {
 #[cfg(target_arch = "x86_64")]
 impl BoxTest for Sse {
     #[inline(always)]
-    fn hit(node: &Node, r: &SlabRay, ray_t_max: f32) -> (u32, [f32; WIDTH]) {
+    fn hit(self, node: &Node, r: &SlabRay, ray_t_max: f32) -> (u32, [f32; WIDTH]) {
         node.hit_sse(r, ray_t_max)
     }
 }
 
 #[cfg(target_arch = "x86_64")]
 impl BoxTest for Avx {
-    /// Only ever called from code compiled for AVX ([`super::bvh`]'s
-    /// `#[target_feature]` walks), which is entered only where the CPU has
-    /// it, and inlined there.
+    /// Inlined into [`super::bvh`]'s `#[target_feature]` walks.
     #[inline(always)]
-    fn hit(node: &Node, r: &SlabRay, ray_t_max: f32) -> (u32, [f32; WIDTH]) {
-        // SAFETY: see above: the caller runs only on CPUs with AVX.
+    fn hit(self, node: &Node, r: &SlabRay, ray_t_max: f32) -> (u32, [f32; WIDTH]) {
+        // SAFETY: an `Avx` exists only where the CPU has AVX.
         unsafe { node.hit_avx(r, ray_t_max) }
     }
 }

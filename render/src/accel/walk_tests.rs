@@ -2,7 +2,7 @@
 //! walk of a tree that needs a deep stack, and the stackless walk of a
 //! tree of one node.
 
-use super::tests::{check_against_brute_force, random_prims, random_ray, Prim};
+use super::tests::{check_against_brute_force, random_prims, random_ray, v, Prim};
 use super::*;
 use farm_common::rng::Rng;
 
@@ -81,7 +81,7 @@ fn a_tree_that_needs_a_deep_stack_is_walked_with_one() {
     }
     let bounds: Vec<Bounds3f> = prims.iter().map(Prim::bounds).collect();
     let (bvh, _) = Bvh::build(&bounds, 1);
-    let need = 1 + stack_need(&bvh.nodes, 0);
+    let need = stack_need(&bvh.nodes, 0);
     assert!(bvh.deep && need > SHALLOW_STACK_SIZE, "needs {need}");
     check_against_brute_force(&prims, 1, 5);
 }
@@ -115,8 +115,9 @@ fn a_one_node_tree_is_walked_in_the_general_order() {
                 ordered[k].hit(r)
             };
             let a = bvh.closest_one_node(&ray, |k, r| test(&mut walked[0], k, r));
-            let b =
-                bvh.closest::<Inline, WIDE_STACK_SIZE, _>(&ray, |k, r| test(&mut walked[1], k, r));
+            let b = bvh.closest::<_, WIDE_STACK_SIZE, _>(Inline::default(), &ray, |k, r| {
+                test(&mut walked[1], k, r)
+            });
             assert_eq!(a, b, "ray {i}");
             assert_eq!(walked[0], walked[1], "ray {i}, {n} primitives");
             // Any hit: the same leaves in the same order, up to the first hit.
@@ -126,10 +127,51 @@ fn a_one_node_tree_is_walked_in_the_general_order() {
                 ordered[k].hit(r).is_some()
             };
             let a = bvh.any_one_node(&ray, |k, r| test(&mut walked[0], k, r));
-            let b = bvh.any::<Inline, _>(&ray, |k, r| test(&mut walked[1], k, r));
+            let b = bvh.any(Inline::default(), &ray, |k, r| test(&mut walked[1], k, r));
             assert_eq!(a, b, "ray {i}");
             assert_eq!(walked[0], walked[1], "ray {i}, {n} primitives, any hit");
         }
     }
     assert!(one_node >= 6, "{one_node} trees of one node");
+}
+
+/// No closest-hit walk holds more stack entries than `stack_need` says, on
+/// random trees of several sizes and leaf sizes, and on boxes that a ray
+/// through their middle hits all of (peaks of 38 entries against a bound
+/// of 48). A stack smaller than its tree needs would panic, not
+/// overwrite: this checks that trees are given a large enough one.
+#[test]
+fn the_stack_bound_holds() {
+    let mut rng = Rng::new(12);
+    let mut most = 0;
+    let cases = [(9, 1), (60, 1), (500, 4), (3000, 1), (20_000, 1), (20_000, 8)];
+    for (case, (n, max_prims)) in cases.into_iter().chain([(3000, 1), (400, 1)]).enumerate() {
+        let mut prims = random_prims(&mut rng, n);
+        if case >= cases.len() {
+            // Large boxes about the origin, overlapping: a ray through the
+            // middle hits every child of every node on its way.
+            for p in &mut prims {
+                let (c, h) = (v(&mut rng, 0.5), Vec3::splat(4.0 + 4.0 * rng.uniform_f32()));
+                *p = Prim::Box(Bounds3f::new(c - h, c + h));
+            }
+        }
+        let bounds: Vec<Bounds3f> = prims.iter().map(Prim::bounds).collect();
+        let (bvh, order) = Bvh::build(&bounds, max_prims);
+        let ordered: Vec<Prim> = order.iter().map(|&i| prims[i as usize]).collect();
+        let need = stack_need(&bvh.nodes, 0);
+        for i in 0..3000 {
+            let mut ray = random_ray(&mut rng, i);
+            if case >= cases.len() {
+                // Through the middle of the boxes.
+                ray.d = -ray.o;
+            }
+            STACK_PEAK.with(|p| p.set(0));
+            bvh.closest::<_, WIDE_STACK_SIZE, _>(Inline::default(), &ray, |k, r| ordered[k].hit(r));
+            let peak = STACK_PEAK.with(|p| p.get());
+            assert!(peak <= need, "{n} primitives: {peak} entries, bound {need}");
+            most = most.max(peak);
+        }
+    }
+    // The walks did use the stack.
+    assert!(most > 20, "at most {most} entries");
 }
