@@ -74,9 +74,9 @@ const WIDE_STACK_SIZE: usize = (WIDTH - 1) * STACK_SIZE + 1;
 
 /// Depth of the closest-hit walk's stack for the trees that need no more
 /// by [`stack_need`]'s bound: nearly all (every shared scene's tree needs
-/// under 70). Its 16-byte entries
-/// then take 2 KB of the caller's frame; the 7 KB that any tree may need
-/// made the compiler probe two stack pages on every call.
+/// under 70). Its 16-byte entries then take 2 KB of the caller's frame;
+/// the 7 KB that any tree may need made the compiler probe two stack
+/// pages on every call.
 const SHALLOW_STACK_SIZE: usize = 2 * STACK_SIZE + 1;
 
 /// Trees of fewer nodes are walked inline in SSE, not in AVX: the call
@@ -136,6 +136,23 @@ fn closest_in_leaf<F: FnMut(usize, &Ray) -> Option<f32>>(
 thread_local! {
     /// The most entries a stack of this thread has held (tests only).
     static STACK_PEAK: std::cell::Cell<usize> = const { std::cell::Cell::new(0) };
+}
+
+/// Whether any of a leaf's primitives `prims` blocks `ray`. A plain loop:
+/// `any` went through an iterator adaptor that was not inlined, a call
+/// for every leaf.
+#[inline(always)]
+fn any_in_leaf<F: FnMut(usize, &Ray) -> bool>(
+    prims: std::ops::Range<usize>,
+    ray: &Ray,
+    f: &mut F,
+) -> bool {
+    for i in prims {
+        if f(i, ray) {
+            return true;
+        }
+    }
+    false
 }
 
 /// A fixed-size traversal stack that is not initialised on each ray.
@@ -252,8 +269,6 @@ impl Bvh {
         drop(nodes);
         wide.shrink_to_fit();
         let deep = !wide.is_empty() && stack_need(&wide, 0) > SHALLOW_STACK_SIZE;
-        // A small tree is walked inline in SSE: the call into the AVX walk
-        // costs more than it saves there.
         let avx = simd() == Simd::Avx && wide.len() >= AVX_FROM_NODES;
         Bvh { nodes: wide, bounds, deep, avx }
     }
@@ -320,9 +335,7 @@ impl Bvh {
             if t[l] >= shortened.t_max {
                 break;
             }
-            let start = node.child[l] as usize;
-            hit |=
-                closest_in_leaf(start..start + usize::from(node.count[l]), &mut shortened, &mut f);
+            hit |= closest_in_leaf(node.prims(l), &mut shortened, &mut f);
         }
         hit
     }
@@ -436,11 +449,8 @@ impl Bvh {
         while mask != 0 {
             let l = mask.trailing_zeros() as usize;
             mask &= mask - 1;
-            let start = node.child[l] as usize;
-            for i in start..start + usize::from(node.count[l]) {
-                if f(i, ray) {
-                    return true;
-                }
+            if any_in_leaf(node.prims(l), ray, &mut f) {
+                return true;
             }
         }
         false
@@ -466,19 +476,13 @@ impl Bvh {
             while mask != 0 {
                 let l = mask.trailing_zeros() as usize;
                 mask &= mask - 1;
-                let count = node.count[l] as usize;
-                if count == 0 {
+                if node.count[l] == 0 {
                     prefetch_node(&self.nodes, node.child[l]);
                     stack.push(node.child[l]);
                     continue;
                 }
-                // A plain loop: `any` went through an iterator adaptor
-                // that was not inlined, a call for every leaf.
-                let start = node.child[l] as usize;
-                for i in start..start + count {
-                    if f(i, ray) {
-                        return true;
-                    }
+                if any_in_leaf(node.prims(l), ray, &mut f) {
+                    return true;
                 }
             }
         }

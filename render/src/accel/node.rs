@@ -183,6 +183,13 @@ fn round_up() -> f32 {
 }
 
 impl Node {
+    /// The primitives of leaf child `l` (empty for an interior child).
+    #[inline(always)]
+    pub(super) fn prims(&self, l: usize) -> std::ops::Range<usize> {
+        let start = self.child[l] as usize;
+        start..start + usize::from(self.count[l])
+    }
+
     /// pbrt-v3's slab test with precomputed reciprocal direction and signs,
     /// on all eight children: far distances are rounded up by 1 + 2γ₃ so
     /// that no hit is lost. An axis whose slab test is undefined (a ray in
