@@ -1,7 +1,7 @@
 //! Partial cylinders around z (pbrt-v3 `shapes/cylinder.cpp`):
 //! `Shape "cylinder" "float radius" 1 "float zmin" -1 "float zmax" 1 "float phimax" 360`.
 
-use super::efloat::{nearest_hit, phi_of, quadratic, weingarten, EFloat, Placement};
+use super::efloat::{misses, nearest_hit, phi_of, quadratic, weingarten, EFloat, Placement};
 use super::efloat3::EFloat3;
 use crate::interaction::{Interaction, SurfaceInteraction};
 use farm_common::geometry::{gamma, Bounds3f, Ray, Vec2, Vec3};
@@ -58,21 +58,47 @@ impl Cylinder {
     }
 
     fn hit(&self, r: &Ray) -> Option<(Ray, EFloat, (Vec3, f32))> {
+        self.hit_from(r, true)
+    }
+
+    /// The hit, with rays rejected on values first ([`misses`]) or not
+    /// (the tests' reference).
+    #[inline(always)]
+    pub(super) fn hit_from(
+        &self,
+        r: &Ray,
+        values_first: bool,
+    ) -> Option<(Ray, EFloat, (Vec3, f32))> {
         let (ray, oe, de) = self.placement.object_ray(r);
+        let eval = |t: f32| {
+            let mut p = ray.at(t);
+            // Clipped in z before the refinement and φ's arc tangent are
+            // paid for (refining moves only x and y).
+            if p.z < self.z_min || p.z > self.z_max {
+                return None;
+            }
+            let hit_rad = (p.x * p.x + p.y * p.y).sqrt();
+            p.x *= self.radius / hit_rad;
+            p.y *= self.radius / hit_rad;
+            let phi = phi_of(p.y, p.x);
+            let clipped = phi > self.phi_max;
+            (!clipped).then_some((p, phi))
+        };
+        if values_first {
+            // The values of the bounded coefficients below, in their order.
+            let (o, d) = (ray.o, ray.d);
+            let a = d.x * d.x + d.y * d.y;
+            let b = 2.0 * (d.x * o.x + d.y * o.y);
+            let c = (o.x * o.x + o.y * o.y) - self.radius * self.radius;
+            if misses(a, b, c, eval) {
+                return None;
+            }
+        }
         let (o, d) = (EFloat3::new(ray.o, oe), EFloat3::new(ray.d, de));
         let a = d.mul(d).sum_xy();
         let b = 2.0 * d.mul(o).sum_xy();
         let c = o.mul(o).sum_xy() - self.radius * self.radius;
         let (t0, t1) = quadratic(a, b, c)?;
-        let eval = |t: f32| {
-            let mut p = ray.at(t);
-            let hit_rad = (p.x * p.x + p.y * p.y).sqrt();
-            p.x *= self.radius / hit_rad;
-            p.y *= self.radius / hit_rad;
-            let phi = phi_of(p.y, p.x);
-            let clipped = p.z < self.z_min || p.z > self.z_max || phi > self.phi_max;
-            (!clipped).then_some((p, phi))
-        };
         let (t, h) = nearest_hit(t0, t1, ray.t_max, eval)?;
         Some((ray, t, h))
     }

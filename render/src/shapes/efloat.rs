@@ -151,8 +151,49 @@ impl Sub<f32> for EFloat {
 /// Roots `t0 <= t1` of `a t² + b t + c` with error bounds (pbrt-v3 `Quadratic`).
 #[inline]
 pub fn quadratic(a: EFloat, b: EFloat, c: EFloat) -> Option<(EFloat, EFloat)> {
-    let discrim = b.v as f64 * b.v as f64 - 4.0 * a.v as f64 * c.v as f64;
-    quadratic_with_discriminant(a, b, c, discrim)
+    quadratic_with_discriminant(a, b, c, discriminant(a.v, b.v, c.v))
+}
+
+/// pbrt-v3's `b² − 4ac`, in double precision from the coefficients' values.
+#[inline(always)]
+fn discriminant(a: f32, b: f32, c: f32) -> f64 {
+    b as f64 * b as f64 - 4.0 * a as f64 * c as f64
+}
+
+/// The arithmetic a quadric's coefficients are written in, so that one
+/// generic function computes them as plain values (`f32`) or with bounds
+/// ([`EFloat`]). An `EFloat`'s value is each operation's plain result, so
+/// both give the same values, bit for bit.
+pub(crate) trait Arith:
+    Copy + Add<Output = Self> + Sub<Output = Self> + Mul<Output = Self> + Div<Output = Self> + From<f32>
+{
+}
+
+impl<T> Arith for T where
+    T: Copy + Add<Output = T> + Sub<Output = T> + Mul<Output = T> + Div<Output = T> + From<f32>
+{
+}
+
+/// Whether pbrt-v3's quadric test ([`quadratic`], then [`nearest_hit`])
+/// misses, judged on the coefficients' values alone: the discriminant is
+/// negative (or NaN), or `eval` clips both roots away. Both decide on
+/// nothing else: the discriminant is computed from the values, and only
+/// the roots' values are ever evaluated, whatever their bounds say. So a
+/// ray this rejects needs no interval arithmetic, and most rays that reach
+/// a quadric's box are rejected here (a third of the hyperboloid's in
+/// all-shapes miss its quadric, and half meet it only beyond its clipped
+/// ends).
+#[inline]
+pub(crate) fn misses<H>(a: f32, b: f32, c: f32, eval: impl Fn(f32) -> Option<H>) -> bool {
+    let discrim = discriminant(a, b, c);
+    #[allow(clippy::neg_cmp_op_on_partial_ord)]
+    if !(discrim >= 0.0) {
+        return true;
+    }
+    // `quadratic_with_root`'s values.
+    let root = discrim.sqrt() as f32;
+    let q = if b < 0.0 { -0.5 * (b - root) } else { -0.5 * (b + root) };
+    eval(q / a).is_none() && eval(c / q).is_none()
 }
 
 /// Roots `t0 <= t1` of `a t² + b t + c` given the discriminant `b² − 4ac`,
@@ -283,14 +324,6 @@ impl Placement {
         let (mut ray, o_err, d_err) = self.object_from_render.ray_with_error(r);
         ray.t_max = r.t_max;
         (ray, o_err, d_err)
-    }
-
-    /// The object-space ray with its coordinates as [`EFloat`]s.
-    #[inline]
-    pub(crate) fn efloat_ray(&self, r: &Ray) -> (Ray, [EFloat; 3], [EFloat; 3]) {
-        let (ray, oe, de) = self.object_ray(r);
-        let (o, d) = efloat_coords(&ray, oe, de);
-        (ray, o, d)
     }
 
     /// Render-space bounds of an object-space box.

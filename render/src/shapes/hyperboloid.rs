@@ -2,7 +2,8 @@
 //! `shapes/hyperboloid.cpp`): `Shape "hyperboloid" "point p1" [0 0 0] "point p2" [1 1 1] "float phimax" 360`.
 
 use super::efloat::{
-    nearest_hit, phi_of, quadratic, ray_point_error, weingarten, EFloat, Placement,
+    efloat_coords, misses, nearest_hit, phi_of, quadratic, ray_point_error, weingarten, Arith,
+    EFloat, Placement,
 };
 use crate::interaction::SurfaceInteraction;
 use farm_common::geometry::{Bounds3f, Ray, Vec2, Vec3};
@@ -99,21 +100,51 @@ impl Hyperboloid {
 
     #[allow(clippy::type_complexity)]
     fn hit(&self, r: &Ray) -> Option<(Ray, [EFloat; 3], [EFloat; 3], EFloat, (Vec3, f32, f32))> {
-        let (ray, o, d) = self.placement.efloat_ray(r);
-        let (ah, ch) = (EFloat::from(self.ah), EFloat::from(self.ch));
+        self.hit_from(r, true)
+    }
+
+    /// pbrt-v3's coefficients, as values or with bounds ([`Arith`]).
+    #[inline(always)]
+    fn coefficients<T: Arith>(&self, o: [T; 3], d: [T; 3]) -> (T, T, T) {
+        let (ah, ch) = (T::from(self.ah), T::from(self.ch));
         let a = ah * d[0] * d[0] + ah * d[1] * d[1] - ch * d[2] * d[2];
-        let b = 2.0 * (ah * d[0] * o[0] + ah * d[1] * o[1] - ch * d[2] * o[2]);
-        let c = ah * o[0] * o[0] + ah * o[1] * o[1] - ch * o[2] * o[2] - 1.0;
-        let (t0, t1) = quadratic(a, b, c)?;
+        let b = T::from(2.0) * (ah * d[0] * o[0] + ah * d[1] * o[1] - ch * d[2] * o[2]);
+        let c = ah * o[0] * o[0] + ah * o[1] * o[1] - ch * o[2] * o[2] - T::from(1.0);
+        (a, b, c)
+    }
+
+    /// The hit, with rays rejected on values first ([`misses`]) or not
+    /// (the tests' reference).
+    #[allow(clippy::type_complexity)]
+    #[inline(always)]
+    pub(super) fn hit_from(
+        &self,
+        r: &Ray,
+        values_first: bool,
+    ) -> Option<(Ray, [EFloat; 3], [EFloat; 3], EFloat, (Vec3, f32, f32))> {
+        let (ray, oe, de) = self.placement.object_ray(r);
         let (p1, p2) = (self.p1, self.p2);
         let eval = |t: f32| {
             let p = ray.at(t);
+            // Clipped in z before φ's arc tangent is paid for.
+            if p.z < self.z_min || p.z > self.z_max {
+                return None;
+            }
             let v = (p.z - p1.z) / (p2.z - p1.z);
             let pr = (1.0 - v) * p1 + v * p2;
             let phi = phi_of(pr.x * p.y - p.x * pr.y, p.x * pr.x + p.y * pr.y);
-            let clipped = p.z < self.z_min || p.z > self.z_max || phi > self.phi_max;
+            let clipped = phi > self.phi_max;
             (!clipped).then_some((p, phi, v))
         };
+        if values_first {
+            let (a, b, c) = self.coefficients(ray.o.to_array(), ray.d.to_array());
+            if misses(a, b, c, eval) {
+                return None;
+            }
+        }
+        let (o, d) = efloat_coords(&ray, oe, de);
+        let (a, b, c) = self.coefficients(o, d);
+        let (t0, t1) = quadratic(a, b, c)?;
         let (t, hp) = nearest_hit(t0, t1, ray.t_max, eval)?;
         Some((ray, o, d, t, hp))
     }

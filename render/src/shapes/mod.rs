@@ -16,6 +16,8 @@ mod loopsubdiv;
 mod mesh;
 mod nurbs;
 mod paraboloid;
+#[cfg(test)]
+mod quadric_tests;
 mod sphere;
 mod triangle;
 
