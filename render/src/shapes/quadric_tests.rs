@@ -13,9 +13,9 @@ fn key(t: EFloat, p: Vec3) -> [u32; 6] {
     [t.v, t.lower_bound(), t.upper_bound(), p.x, p.y, p.z].map(f32::to_bits)
 }
 
-/// A placement at a random scale (10⁻³ to 10⁴), rotation and offset.
+/// A placement at a random scale (10⁻⁴ to 10⁶), rotation and offset.
 fn placement(rng: &mut Rng) -> (Placement, f32) {
-    let scale = farm_common::math::powf(10.0, rng.uniform_f32() * 7.0 - 3.0);
+    let scale = farm_common::math::powf(10.0, rng.uniform_f32() * 10.0 - 4.0);
     let axis = Vec3::new(rng.uniform_f32() - 0.5, rng.uniform_f32() - 0.5, rng.uniform_f32() + 0.1);
     let rot = Quat::from_axis_angle(axis.normalize(), rng.uniform_f32() * 6.0);
     let offset = scale * 3.0 * Vec3::new(rng.uniform_f32(), rng.uniform_f32(), rng.uniform_f32());
@@ -23,21 +23,33 @@ fn placement(rng: &mut Rng) -> (Placement, f32) {
     (Placement::new(&Transform::new(m), rng.uniform_u32().is_multiple_of(2)), scale)
 }
 
-/// Rays aimed near the shape's box from around it, some from on its box's
-/// faces, some stopping short; a fifth graze along a random tangent-ish
-/// direction through a point near the axis.
+/// A ray near the shape, one of five kinds, a fifth each: leaving a point
+/// in its box; from 10⁵ sizes away (where the quadratic cancels); along a
+/// tangent of the unit circle about its axis (grazing the cylinder, close
+/// to grazing the others); aimed at its box from nearby; and the same,
+/// stopping short.
 fn ray(rng: &mut Rng, pl: &Placement, scale: f32) -> Ray {
     let mut u = || rng.uniform_f32() * 2.0 - 1.0;
-    let target = pl.render_from_object.point(Vec3::new(u() * 1.5, u() * 1.5, u() * 1.5));
+    let xf = &pl.render_from_object;
+    let target = xf.point(Vec3::new(u() * 1.5, u() * 1.5, u() * 1.5));
+    let k = u();
+    if k < -0.6 {
+        return Ray::new(target, Vec3::new(u(), u(), u()), 0.0);
+    }
+    if k < -0.2 {
+        let from = target + scale * 1e5 * Vec3::new(u(), u(), u());
+        return Ray::new(from, target - from, 0.0);
+    }
+    if k < 0.2 {
+        let (theta, z) = (u() * 3.2, u());
+        let (s, c) = farm_common::math::sin_cos(theta);
+        let (p, d) = (Vec3::new(c, s, z), Vec3::new(-s, c, u() * 0.01));
+        return Ray::new(xf.point(p - 3.0 * d), xf.vector(d), 0.0);
+    }
     let from = target + scale * 6.0 * Vec3::new(u(), u(), u());
     let mut r = Ray::new(from, target - from, 0.0);
-    let k = u();
     if k > 0.6 {
         r.t_max = (k - 0.6) * 3.0;
-    }
-    if k < -0.6 {
-        // From the target, outwards: a ray leaving a surface near it.
-        r = Ray::new(target, Vec3::new(u(), u(), u()), 0.0);
     }
     r
 }
