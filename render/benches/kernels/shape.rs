@@ -1,4 +1,5 @@
-//! Ray–shape kernels: the watertight triangle test and the sphere quadric.
+//! Ray–shape kernels: the watertight triangle test, the sphere and the
+//! other quadrics.
 
 use super::*;
 
@@ -108,6 +109,49 @@ fn sphere_spawned(bencher: Bencher) {
     bencher.counter(ItemsCount::new(spawned.len())).bench_local(|| {
         for r in black_box(&spawned) {
             black_box(black_box(&s).intersect(r));
+        }
+    });
+}
+
+/// A quadric clipped as all-shapes clips them (φ to 270°; the hyperboloid
+/// swept from a slanted segment), placed by a translation, and rays from 6 units
+/// away aimed into its box grown by 30%: many meet its quadric only where
+/// it is clipped away, or miss it.
+fn quadric(name: &str) -> (Shape, Vec<Ray>) {
+    let c = Vec3::new(1.0, 2.0, 3.0);
+    let xf = Transform::new(Mat4::from_translation(c));
+    let phi = ("phimax", ParamValue::Float(vec![270.0]));
+    let params = match name {
+        "hyperboloid" => vec![
+            ("p1", ParamValue::Point3(vec![[1.0, 0.0, -1.0]])),
+            ("p2", ParamValue::Point3(vec![[0.5, 0.5, 1.0]])),
+            phi,
+        ],
+        _ => vec![phi],
+    };
+    let s = make_shapes(name, params, &xf);
+    // Its box, grown by 30%.
+    let b = s[0].bounds();
+    let (mid, half) = ((b.min + b.max) * 0.5, (b.max - b.min) * 0.65);
+    let mut rng = Rng::new(4);
+    let rays: Vec<Ray> = (0..N)
+        .map(|_| {
+            let o = mid + 6.0 * uniform_sample_sphere(u2(&mut rng));
+            let target = mid + half * v3(&mut rng, -1.0, 1.0);
+            Ray::new(o, (target - o).normalize(), 0.0)
+        })
+        .collect();
+    check_mixed(name, &rays, |r| s[0].intersect_p(r));
+    (s[0].clone(), rays)
+}
+
+/// `Shape::intersect_p` on the quadrics that solve pbrt-v3's quadratic.
+#[divan::bench(args = ["cylinder", "cone", "paraboloid", "hyperboloid"])]
+fn quadric_intersect_p(bencher: Bencher, name: &str) {
+    let (s, rays) = quadric(name);
+    bencher.counter(ItemsCount::new(N)).bench_local(|| {
+        for r in black_box(&rays) {
+            black_box(black_box(&s).intersect_p(r));
         }
     });
 }
