@@ -2,8 +2,7 @@
 //! `Shape "cone" "float radius" 1 "float height" 1 "float phimax" 360`.
 
 use super::efloat::{
-    efloat_coords, misses, nearest_hit, phi_of, quadratic, ray_point_error, weingarten, Arith,
-    EFloat, Placement,
+    phi_of, quadric_hit, ray_point_error, weingarten, Arith, Coefficients, EFloat, Placement,
 };
 use crate::interaction::SurfaceInteraction;
 use farm_common::geometry::{Bounds3f, Ray, Vec2, Vec3};
@@ -43,28 +42,11 @@ impl Cone {
         self.placement.bounds(&Bounds3f::new(Vec3::new(-r, -r, 0.0), Vec3::new(r, r, self.height)))
     }
 
-    #[allow(clippy::type_complexity)]
-    fn hit(&self, r: &Ray) -> Option<(Ray, [EFloat; 3], [EFloat; 3], EFloat, (Vec3, f32))> {
-        self.hit_from(r, true)
-    }
-
-    /// pbrt-v3's coefficients, as values or with bounds ([`Arith`]).
-    #[inline(always)]
-    fn coefficients<T: Arith>(&self, o: [T; 3], d: [T; 3]) -> (T, T, T) {
-        let mut k = T::from(self.radius) / T::from(self.height);
-        k = k * k;
-        let h = T::from(self.height);
-        let a = d[0] * d[0] + d[1] * d[1] - k * d[2] * d[2];
-        let b = T::from(2.0) * (d[0] * o[0] + d[1] * o[1] - k * d[2] * (o[2] - h));
-        let c = o[0] * o[0] + o[1] * o[1] - k * (o[2] - h) * (o[2] - h);
-        (a, b, c)
-    }
-
-    /// The hit, with rays rejected on values first ([`misses`]) or not
-    /// (the tests' reference).
+    /// The hit in object space, with rays rejected on values first
+    /// ([`quadric_hit`]) or not (the tests' reference).
     #[allow(clippy::type_complexity)]
     #[inline(always)]
-    pub(super) fn hit_from(
+    pub(super) fn hit(
         &self,
         r: &Ray,
         values_first: bool,
@@ -80,22 +62,13 @@ impl Cone {
             let clipped = phi > self.phi_max;
             (!clipped).then_some((p, phi))
         };
-        if values_first {
-            let (a, b, c) = self.coefficients(ray.o.to_array(), ray.d.to_array());
-            if misses(a, b, c, eval) {
-                return None;
-            }
-        }
-        let (o, d) = efloat_coords(&ray, oe, de);
-        let (a, b, c) = self.coefficients(o, d);
-        let (t0, t1) = quadratic(a, b, c)?;
-        let (t, hp) = nearest_hit(t0, t1, ray.t_max, eval)?;
+        let (o, d, t, hp) = quadric_hit(self, &ray, (oe, de), values_first, eval)?;
         Some((ray, o, d, t, hp))
     }
 
     /// Nearest hit, in render space.
     pub fn intersect(&self, r: &Ray) -> Option<(f32, SurfaceInteraction)> {
-        let (ray, o, d, t, (p, phi)) = self.hit(r)?;
+        let (ray, o, d, t, (p, phi)) = self.hit(r, true)?;
         let u = phi / self.phi_max;
         let v = p.z / self.height;
         let dpdu = Vec3::new(-self.phi_max * p.y, self.phi_max * p.x, 0.0);
@@ -121,12 +94,25 @@ impl Cone {
 
     /// Whether the ray hits.
     pub fn intersect_p(&self, r: &Ray) -> bool {
-        self.hit(r).is_some()
+        self.hit(r, true).is_some()
     }
 
     /// Surface area (object space).
     pub fn area(&self) -> f32 {
         self.radius * (self.height * self.height + self.radius * self.radius).sqrt() * self.phi_max
             / 2.0
+    }
+}
+
+impl Coefficients for Cone {
+    #[inline(always)]
+    fn coefficients<T: Arith>(&self, o: [T; 3], d: [T; 3]) -> (T, T, T) {
+        let mut k = T::from(self.radius) / T::from(self.height);
+        k = k * k;
+        let h = T::from(self.height);
+        let a = d[0] * d[0] + d[1] * d[1] - k * d[2] * d[2];
+        let b = T::from(2.0) * (d[0] * o[0] + d[1] * o[1] - k * d[2] * (o[2] - h));
+        let c = o[0] * o[0] + o[1] * o[1] - k * (o[2] - h) * (o[2] - h);
+        (a, b, c)
     }
 }

@@ -57,18 +57,10 @@ impl Cylinder {
             .bounds(&Bounds3f::new(Vec3::new(-r, -r, self.z_min), Vec3::new(r, r, self.z_max)))
     }
 
-    fn hit(&self, r: &Ray) -> Option<(Ray, EFloat, (Vec3, f32))> {
-        self.hit_from(r, true)
-    }
-
-    /// The hit, with rays rejected on values first ([`misses`]) or not
-    /// (the tests' reference).
+    /// The hit in object space, with rays rejected on values first
+    /// ([`misses`]) or not (the tests' reference).
     #[inline(always)]
-    pub(super) fn hit_from(
-        &self,
-        r: &Ray,
-        values_first: bool,
-    ) -> Option<(Ray, EFloat, (Vec3, f32))> {
+    pub(super) fn hit(&self, r: &Ray, values_first: bool) -> Option<(Ray, EFloat, (Vec3, f32))> {
         let (ray, oe, de) = self.placement.object_ray(r);
         let eval = |t: f32| {
             let mut p = ray.at(t);
@@ -105,7 +97,7 @@ impl Cylinder {
 
     /// Nearest hit, in render space.
     pub fn intersect(&self, r: &Ray) -> Option<(f32, SurfaceInteraction)> {
-        let (ray, t, (p, phi)) = self.hit(r)?;
+        let (ray, t, (p, phi)) = self.hit(r, true)?;
         let u = phi / self.phi_max;
         let v = (p.z - self.z_min) / (self.z_max - self.z_min);
         let dpdu = Vec3::new(-self.phi_max * p.y, self.phi_max * p.x, 0.0);
@@ -130,7 +122,7 @@ impl Cylinder {
 
     /// Whether the ray hits.
     pub fn intersect_p(&self, r: &Ray) -> bool {
-        self.hit(r).is_some()
+        self.hit(r, true).is_some()
     }
 
     /// Surface area (object space).

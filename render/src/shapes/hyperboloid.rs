@@ -2,8 +2,7 @@
 //! `shapes/hyperboloid.cpp`): `Shape "hyperboloid" "point p1" [0 0 0] "point p2" [1 1 1] "float phimax" 360`.
 
 use super::efloat::{
-    efloat_coords, misses, nearest_hit, phi_of, quadratic, ray_point_error, weingarten, Arith,
-    EFloat, Placement,
+    phi_of, quadric_hit, ray_point_error, weingarten, Arith, Coefficients, EFloat, Placement,
 };
 use crate::interaction::SurfaceInteraction;
 use farm_common::geometry::{Bounds3f, Ray, Vec2, Vec3};
@@ -98,26 +97,11 @@ impl Hyperboloid {
             .bounds(&Bounds3f::new(Vec3::new(-r, -r, self.z_min), Vec3::new(r, r, self.z_max)))
     }
 
-    #[allow(clippy::type_complexity)]
-    fn hit(&self, r: &Ray) -> Option<(Ray, [EFloat; 3], [EFloat; 3], EFloat, (Vec3, f32, f32))> {
-        self.hit_from(r, true)
-    }
-
-    /// pbrt-v3's coefficients, as values or with bounds ([`Arith`]).
-    #[inline(always)]
-    fn coefficients<T: Arith>(&self, o: [T; 3], d: [T; 3]) -> (T, T, T) {
-        let (ah, ch) = (T::from(self.ah), T::from(self.ch));
-        let a = ah * d[0] * d[0] + ah * d[1] * d[1] - ch * d[2] * d[2];
-        let b = T::from(2.0) * (ah * d[0] * o[0] + ah * d[1] * o[1] - ch * d[2] * o[2]);
-        let c = ah * o[0] * o[0] + ah * o[1] * o[1] - ch * o[2] * o[2] - T::from(1.0);
-        (a, b, c)
-    }
-
-    /// The hit, with rays rejected on values first ([`misses`]) or not
-    /// (the tests' reference).
+    /// The hit in object space, with rays rejected on values first
+    /// ([`quadric_hit`]) or not (the tests' reference).
     #[allow(clippy::type_complexity)]
     #[inline(always)]
-    pub(super) fn hit_from(
+    pub(super) fn hit(
         &self,
         r: &Ray,
         values_first: bool,
@@ -136,22 +120,13 @@ impl Hyperboloid {
             let clipped = phi > self.phi_max;
             (!clipped).then_some((p, phi, v))
         };
-        if values_first {
-            let (a, b, c) = self.coefficients(ray.o.to_array(), ray.d.to_array());
-            if misses(a, b, c, eval) {
-                return None;
-            }
-        }
-        let (o, d) = efloat_coords(&ray, oe, de);
-        let (a, b, c) = self.coefficients(o, d);
-        let (t0, t1) = quadratic(a, b, c)?;
-        let (t, hp) = nearest_hit(t0, t1, ray.t_max, eval)?;
+        let (o, d, t, hp) = quadric_hit(self, &ray, (oe, de), values_first, eval)?;
         Some((ray, o, d, t, hp))
     }
 
     /// Nearest hit, in render space.
     pub fn intersect(&self, r: &Ray) -> Option<(f32, SurfaceInteraction)> {
-        let (ray, o, d, t, (p, phi, v)) = self.hit(r)?;
+        let (ray, o, d, t, (p, phi, v)) = self.hit(r, true)?;
         let u = phi / self.phi_max;
         let (p1, p2) = (self.p1, self.p2);
         let (sin_phi, cos_phi) = math::sin_cos(phi);
@@ -182,7 +157,7 @@ impl Hyperboloid {
 
     /// Whether the ray hits.
     pub fn intersect_p(&self, r: &Ray) -> bool {
-        self.hit(r).is_some()
+        self.hit(r, true).is_some()
     }
 
     /// Surface area (pbrt-v3's closed form, object space).
@@ -212,5 +187,16 @@ impl Hyperboloid {
                     * (p2.x * p2.x - p1.y * p1.y + 5.0 * p1.y * p2.y - p2.y * p2.y - p1.z * p1.z
                         + 2.0 * p1.z * p2.z
                         - p2.z * p2.z))
+    }
+}
+
+impl Coefficients for Hyperboloid {
+    #[inline(always)]
+    fn coefficients<T: Arith>(&self, o: [T; 3], d: [T; 3]) -> (T, T, T) {
+        let (ah, ch) = (T::from(self.ah), T::from(self.ch));
+        let a = ah * d[0] * d[0] + ah * d[1] * d[1] - ch * d[2] * d[2];
+        let b = T::from(2.0) * (ah * d[0] * o[0] + ah * d[1] * o[1] - ch * d[2] * o[2]);
+        let c = ah * o[0] * o[0] + ah * o[1] * o[1] - ch * o[2] * o[2] - T::from(1.0);
+        (a, b, c)
     }
 }

@@ -2,8 +2,7 @@
 //! `Shape "paraboloid" "float radius" 1 "float zmin" 0 "float zmax" 1 "float phimax" 360`.
 
 use super::efloat::{
-    efloat_coords, misses, nearest_hit, phi_of, quadratic, ray_point_error, weingarten, Arith,
-    EFloat, Placement,
+    phi_of, quadric_hit, ray_point_error, weingarten, Arith, Coefficients, EFloat, Placement,
 };
 use crate::interaction::SurfaceInteraction;
 use farm_common::geometry::{Bounds3f, Ray, Vec2, Vec3};
@@ -53,27 +52,11 @@ impl Paraboloid {
             .bounds(&Bounds3f::new(Vec3::new(-r, -r, self.z_min), Vec3::new(r, r, self.z_max)))
     }
 
-    #[allow(clippy::type_complexity)]
-    fn hit(&self, r: &Ray) -> Option<(Ray, [EFloat; 3], [EFloat; 3], EFloat, (Vec3, f32))> {
-        self.hit_from(r, true)
-    }
-
-    /// pbrt-v3's coefficients, as values or with bounds ([`Arith`]).
-    #[inline(always)]
-    fn coefficients<T: Arith>(&self, o: [T; 3], d: [T; 3]) -> (T, T, T) {
-        let rad = T::from(self.radius);
-        let k = T::from(self.z_max) / (rad * rad);
-        let a = k * (d[0] * d[0] + d[1] * d[1]);
-        let b = T::from(2.0) * k * (d[0] * o[0] + d[1] * o[1]) - d[2];
-        let c = k * (o[0] * o[0] + o[1] * o[1]) - o[2];
-        (a, b, c)
-    }
-
-    /// The hit, with rays rejected on values first ([`misses`]) or not
-    /// (the tests' reference).
+    /// The hit in object space, with rays rejected on values first
+    /// ([`quadric_hit`]) or not (the tests' reference).
     #[allow(clippy::type_complexity)]
     #[inline(always)]
-    pub(super) fn hit_from(
+    pub(super) fn hit(
         &self,
         r: &Ray,
         values_first: bool,
@@ -89,22 +72,13 @@ impl Paraboloid {
             let clipped = phi > self.phi_max;
             (!clipped).then_some((p, phi))
         };
-        if values_first {
-            let (a, b, c) = self.coefficients(ray.o.to_array(), ray.d.to_array());
-            if misses(a, b, c, eval) {
-                return None;
-            }
-        }
-        let (o, d) = efloat_coords(&ray, oe, de);
-        let (a, b, c) = self.coefficients(o, d);
-        let (t0, t1) = quadratic(a, b, c)?;
-        let (t, hp) = nearest_hit(t0, t1, ray.t_max, eval)?;
+        let (o, d, t, hp) = quadric_hit(self, &ray, (oe, de), values_first, eval)?;
         Some((ray, o, d, t, hp))
     }
 
     /// Nearest hit, in render space.
     pub fn intersect(&self, r: &Ray) -> Option<(f32, SurfaceInteraction)> {
-        let (ray, o, d, t, (p, phi)) = self.hit(r)?;
+        let (ray, o, d, t, (p, phi)) = self.hit(r, true)?;
         let u = phi / self.phi_max;
         let dz = self.z_max - self.z_min;
         let v = (p.z - self.z_min) / dz;
@@ -132,7 +106,7 @@ impl Paraboloid {
 
     /// Whether the ray hits.
     pub fn intersect_p(&self, r: &Ray) -> bool {
-        self.hit(r).is_some()
+        self.hit(r, true).is_some()
     }
 
     /// Surface area (object space).
@@ -141,5 +115,17 @@ impl Paraboloid {
         let k = 4.0 * self.z_max / radius2;
         (radius2 * radius2 * self.phi_max / (12.0 * self.z_max * self.z_max))
             * (math::powf(k * self.z_max + 1.0, 1.5) - math::powf(k * self.z_min + 1.0, 1.5))
+    }
+}
+
+impl Coefficients for Paraboloid {
+    #[inline(always)]
+    fn coefficients<T: Arith>(&self, o: [T; 3], d: [T; 3]) -> (T, T, T) {
+        let rad = T::from(self.radius);
+        let k = T::from(self.z_max) / (rad * rad);
+        let a = k * (d[0] * d[0] + d[1] * d[1]);
+        let b = T::from(2.0) * k * (d[0] * o[0] + d[1] * o[1]) - d[2];
+        let c = k * (o[0] * o[0] + o[1] * o[1]) - o[2];
+        (a, b, c)
     }
 }

@@ -94,19 +94,19 @@ fn check(name: &str, hit: impl Fn(&Params, &Ray, bool) -> Option<[u32; 6]>) {
 fn rejecting_on_values_changes_no_quadric_hit() {
     check("cylinder", |s, r, f| {
         let q = Cylinder::new(s.pl, 1.0, s.z[0], s.z[1], s.phi);
-        q.hit_from(r, f).map(|(_, t, (p, _))| key(t, p))
+        q.hit(r, f).map(|(_, t, (p, _))| key(t, p))
     });
     check("cone", |s, r, f| {
         let q = Cone::new(s.pl, 1.0 + s.z[1], 1.0, s.phi);
-        q.hit_from(r, f).map(|(_, _, _, t, (p, _))| key(t, p))
+        q.hit(r, f).map(|(_, _, _, t, (p, _))| key(t, p))
     });
     check("paraboloid", |s, r, f| {
         let q = Paraboloid::new(s.pl, 1.0, s.z[0].max(0.0), s.z[1], s.phi);
-        q.hit_from(r, f).map(|(_, _, _, t, (p, _))| key(t, p))
+        q.hit(r, f).map(|(_, _, _, t, (p, _))| key(t, p))
     });
     check("hyperboloid", |s, r, f| {
         let (p1, p2) = (Vec3::new(1.0, s.z[0], -1.0), Vec3::new(0.5 + s.z[1], 0.3, 1.0));
         let q = Hyperboloid::new(s.pl, p1, p2, s.phi).expect("a hyperboloid");
-        q.hit_from(r, f).map(|(_, _, _, t, (p, _, _))| key(t, p))
+        q.hit(r, f).map(|(_, _, _, t, (p, _, _))| key(t, p))
     });
 }
