@@ -5,28 +5,8 @@
 use super::ewa::{Ellipse, Spans};
 use farm_common::geometry::Vec2;
 use farm_common::math;
-use farm_common::Spectrum;
-use std::ops::{Add, Mul};
 
-/// What a MIP map stores: floats or RGB.
-pub trait Texel: Copy + Default + Add<Output = Self> + Mul<f32, Output = Self> {
-    /// The value clamped below at zero.
-    fn clamp_non_negative(self) -> Self;
-}
-
-impl Texel for f32 {
-    #[inline]
-    fn clamp_non_negative(self) -> Self {
-        self.max(0.0)
-    }
-}
-
-impl Texel for Spectrum {
-    #[inline]
-    fn clamp_non_negative(self) -> Self {
-        self.map(|v| v.max(0.0))
-    }
-}
+pub use super::texel::Texel;
 
 /// How lookups outside [0, 1]² behave (pbrt-v3 `ImageWrap`).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, PartialOrd, Ord)]
@@ -59,6 +39,15 @@ struct Level<T> {
     w: usize,
     h: usize,
     texels: Vec<T>,
+    /// Every texel is [`Texel::tame`].
+    tame: bool,
+}
+
+impl<T: Texel> Level<T> {
+    fn new(w: usize, h: usize, texels: Vec<T>) -> Self {
+        let tame = texels.iter().all(|t| t.tame());
+        Level { w, h, texels, tame }
+    }
 }
 
 /// An image pyramid with pbrt-v3's filtered lookups.
@@ -176,7 +165,7 @@ impl<T: Texel> MipMap<T> {
             pyramid: Vec::with_capacity(n_levels),
             weight_lut: [0.0; WEIGHT_LUT_SIZE],
         };
-        mip.pyramid.push(Level { w, h, texels: img });
+        mip.pyramid.push(Level::new(w, h, img));
         for i in 1..n_levels {
             let (pw, ph) = (mip.pyramid[i - 1].w, mip.pyramid[i - 1].h);
             let (sw, sh) = ((pw / 2).max(1), (ph / 2).max(1));
@@ -192,7 +181,7 @@ impl<T: Texel> MipMap<T> {
                     texels.push(v);
                 }
             }
-            mip.pyramid.push(Level { w: sw, h: sh, texels });
+            mip.pyramid.push(Level::new(sw, sh, texels));
         }
         for (i, w) in mip.weight_lut.iter_mut().enumerate() {
             let alpha = 2.0f32;
@@ -256,6 +245,12 @@ impl<T: Texel> MipMap<T> {
     /// `dst0`, `dst1` (pbrt-v3 `Lookup(st, dstdx, dstdy)`): trilinear when
     /// the map was built with `trilinear`, EWA otherwise.
     pub fn lookup_ewa(&self, st: Vec2, dst0: Vec2, dst1: Vec2) -> T {
+        self.lookup_ewa_with(st, dst0, dst1, true)
+    }
+
+    /// [`MipMap::lookup_ewa`], taking one level where that gives the same
+    /// bits if `one_level` (the tests compare both ways).
+    fn lookup_ewa_with(&self, st: Vec2, dst0: Vec2, dst1: Vec2, one_level: bool) -> T {
         let (mut dst0, mut dst1) = (dst0, dst1);
         if self.trilinear {
             let width = dst0.x.abs().max(dst0.y.abs()).max(dst1.x.abs().max(dst1.y.abs()));
@@ -278,7 +273,34 @@ impl<T: Texel> MipMap<T> {
         let il = math::floor(lod);
         let d = lod - il;
         let il = il as usize;
-        self.ewa(il, st, dst0, dst1, true) * (1.0 - d) + self.ewa(il + 1, st, dst0, dst1, true) * d
+        let near = self.ewa(il, st, dst0, dst1, true) * (1.0 - d);
+        if one_level && d == 0.0 && self.next_is_finite(il, st) && !near.has_negative_zero() {
+            #[cfg(test)]
+            tests::ONE_LEVEL.with(|n| n.set(n.get() + 1));
+            // The next level's term is a finite value times 0: ±0, which
+            // adding leaves `near` as it is. A magnified texture (a third
+            // of spheres-differentials' lookups) takes only one level.
+            return near;
+        }
+        near + self.ewa(il + 1, st, dst0, dst1, true) * d
+    }
+
+    /// Whether [`MipMap::ewa`] on the level after `il` is sure to be
+    /// finite at `st`. Its ellipse holds the unit disk around the centre
+    /// (its matrix is the inverse of the identity plus a positive
+    /// semi-definite footprint), so the texel nearest the centre passes its
+    /// test, with a margin while coordinates are below 2²⁰ texels: the
+    /// weights' sum is positive. Its minor axis is at most a texel there,
+    /// and its major at most `max_aniso` times that, so its box holds at
+    /// most (2·10⁴ + 3)² texels, whose weighted sum stays finite if they
+    /// are tame.
+    fn next_is_finite(&self, il: usize, st: Vec2) -> bool {
+        const FAR: f32 = (1 << 20) as f32;
+        let (l0, next) = (&self.pyramid[0], self.pyramid.get(il + 1));
+        next.or(self.pyramid.last()).is_some_and(|l| l.tame)
+            && self.max_aniso <= 1e4
+            && st.x.abs() * (l0.w as f32) < FAR
+            && st.y.abs() * (l0.h as f32) < FAR
     }
 
     /// pbrt-v3's `EWA` on one level; `spans` visits each row's span only
@@ -365,123 +387,5 @@ impl<T: Texel> MipMap<T> {
 }
 
 #[cfg(test)]
-mod tests {
-    use super::*;
-    use farm_common::rng::Rng;
-
-    #[test]
-    fn repeat_wraps_with_a_mask_as_with_a_division() {
-        for n in [1usize, 2, 8, 64, 3, 12] {
-            for i in -300i64..300 {
-                let want = Some(i.rem_euclid(n as i64) as usize);
-                assert_eq!(wrap_index(i, n, WrapMode::Repeat), want, "{i} mod {n}");
-            }
-        }
-    }
-
-    #[test]
-    fn constant_image_gives_constant_lookups() {
-        let c = Spectrum::new(0.25, 0.5, 0.75);
-        let mut rng = Rng::new(1);
-        for (w, h) in [(5usize, 3usize), (8, 8), (1, 7), (16, 4)] {
-            for wrap in [WrapMode::Repeat, WrapMode::Clamp] {
-                for tri in [false, true] {
-                    let m = MipMap::new(w, h, vec![c; w * h], tri, 8.0, wrap);
-                    assert!(m.level_size(0).0.is_power_of_two());
-                    for _ in 0..200 {
-                        let st =
-                            Vec2::new(rng.uniform_f32() * 3.0 - 1.0, rng.uniform_f32() * 3.0 - 1.0);
-                        let d0 = Vec2::new(rng.uniform_f32() - 0.5, rng.uniform_f32() - 0.5) * 0.3;
-                        let d1 = Vec2::new(rng.uniform_f32() - 0.5, rng.uniform_f32() - 0.5) * 0.01;
-                        for v in [
-                            m.lookup_ewa(st, d0, d1),
-                            m.lookup(st, rng.uniform_f32()),
-                            m.lookup_ewa(st, Vec2::ZERO, Vec2::ZERO),
-                        ] {
-                            for k in 0..3 {
-                                assert!((v[k] - c[k]).abs() < 1e-4, "{w}x{h} {wrap:?} {v:?}");
-                            }
-                        }
-                    }
-                }
-            }
-        }
-    }
-
-    /// Visiting each row's span gives the same bits as the whole box, for
-    /// every wrap mode, square and oblong maps, footprints from a twentieth
-    /// of a texel to 64 texels with anisotropy up to 16, centres near and
-    /// far from the origin (up to 6.4e6 texels); then thin footprints with
-    /// anisotropy up to 1000 at every angle, whose coefficients nearly
-    /// satisfy `b² = 4ac`; and the spans are used in over a tenth of the
-    /// lookups. (The margins for a rounded `ss` and boxes past 2^20 texels
-    /// wide are not reached: `ss` is exact in every case here.)
-    #[test]
-    fn row_spans_sum_the_same_bits_as_the_whole_box() {
-        let mut rng = Rng::new(23);
-        let mut spanned = 0;
-        let mut lookups = 0;
-        for (w, h, wrap) in [
-            (64usize, 64usize, WrapMode::Repeat),
-            (48, 20, WrapMode::Clamp),
-            (32, 128, WrapMode::Black),
-        ] {
-            let texels = (0..w * h)
-                .map(|_| Spectrum::new(rng.uniform_f32(), rng.uniform_f32(), rng.uniform_f32()))
-                .collect();
-            let m = MipMap::new(w, h, texels, false, 8.0, wrap);
-            for i in 0..4000 {
-                let far = [1.0, 100.0, 1e4, 1e5][i % 4];
-                let st = Vec2::new(rng.uniform_f32() - 0.5, rng.uniform_f32() - 0.5) * far;
-                let level = (rng.uniform_u32() % m.levels() as u32) as usize;
-                let side = m.pyramid[level].w.max(m.pyramid[level].h) as f32;
-                // The minor axis in this level's texels, then in [0, 1]²;
-                // every fifth footprint thin (major axis up to 160 texels).
-                let thin = i % 5 == 4;
-                let (small, range, most) =
-                    if thin { (0.02, 8.0, 1000.0) } else { (0.05, 80.0, 16.0) };
-                let minor = small * math::powf(range, rng.uniform_f32()) / side;
-                let aniso = math::powf(most, rng.uniform_f32());
-                let phi = 2.0 * std::f32::consts::PI * rng.uniform_f32();
-                let (s, c) = math::sin_cos(phi);
-                let d0 = Vec2::new(c, s) * minor * aniso;
-                let d1 = Vec2::new(-s, c) * minor;
-                let whole = m.ewa(level, st, d0, d1, false);
-                let spans = m.ewa(level, st, d0, d1, true);
-                for k in 0..3 {
-                    assert_eq!(whole[k].to_bits(), spans[k].to_bits(), "{st:?} {d0:?} {d1:?}");
-                }
-                spanned += usize::from(Spans::new(&m.ellipse(level, st, d0, d1)).is_some());
-                lookups += 1;
-            }
-        }
-        assert!(spanned * 10 > lookups, "{spanned} of {lookups} lookups used spans");
-    }
-
-    #[test]
-    fn lookups_at_coordinates_past_the_integers_do_not_panic() {
-        // Texel boxes whose corners saturate at i64::MIN or MAX (a planar
-        // mapping far from its origin), with overflow checks on in tests.
-        let m = MipMap::new(4, 4, vec![0.5f32; 16], false, 8.0, WrapMode::Repeat);
-        for x in [-1e19f32, 1e19, -3e38, 3e38, f32::NEG_INFINITY] {
-            for d in [1e-6f32, 0.01] {
-                let v = m.lookup_ewa(Vec2::new(x, 0.25), Vec2::new(d, 0.0), Vec2::new(0.0, d));
-                assert!(v.is_nan() || v == 0.5 || v == 0.0, "{x} {d}: {v}");
-            }
-        }
-    }
-
-    #[test]
-    fn pyramid_averages_and_wraps() {
-        let m = MipMap::new(2, 2, vec![0.0f32, 1.0, 2.0, 3.0], false, 8.0, WrapMode::Black);
-        assert_eq!(m.levels(), 2);
-        assert_eq!(m.level_size(1), (1, 1));
-        assert_eq!(m.texel(1, 0, 0), 1.5);
-        assert_eq!(m.texel(0, -1, 0), 0.0);
-        // Bilinear at a texel centre returns the texel; a huge width returns the top level.
-        assert_eq!(m.lookup(Vec2::new(0.75, 0.25), 0.0), 1.0);
-        assert_eq!(m.lookup(Vec2::new(0.3, 0.3), 10.0), 1.5);
-        let r = MipMap::new(2, 1, vec![1.0f32, 3.0], false, 8.0, WrapMode::Repeat);
-        assert_eq!(r.texel(0, 2, 5), 1.0);
-    }
-}
+#[path = "mipmap_tests.rs"]
+mod tests;

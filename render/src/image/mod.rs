@@ -5,6 +5,7 @@ use farm_common::math;
 use std::sync::LazyLock;
 mod ewa;
 mod mipmap;
+mod texel;
 
 pub use farm_common::image::{read_image, ImageError, RgbImage};
 pub use mipmap::{MipMap, Texel, WrapMode};
