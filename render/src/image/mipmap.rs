@@ -278,27 +278,34 @@ impl<T: Texel> MipMap<T> {
             #[cfg(test)]
             tests::ONE_LEVEL.with(|n| n.set(n.get() + 1));
             // The next level's term is a finite value times 0: ±0, which
-            // adding leaves `near` as it is. A magnified texture (a third
-            // of spheres-differentials' lookups) takes only one level.
+            // adding leaves `near` as it is. A magnified texture (two
+            // thirds of spheres-differentials' lookups) takes only one
+            // level.
             return near;
         }
         near + self.ewa(il + 1, st, dst0, dst1, true) * d
     }
 
     /// Whether [`MipMap::ewa`] on the level after `il` is sure to be
-    /// finite at `st`. Its ellipse holds the unit disk around the centre
-    /// (its matrix is the inverse of the identity plus a positive
-    /// semi-definite footprint), so the texel nearest the centre passes its
-    /// test, with a margin while coordinates are below 2²⁰ texels: the
-    /// weights' sum is positive. Its minor axis is at most a texel there,
-    /// and its major at most `max_aniso` times that, so its box holds at
-    /// most (2·10⁴ + 3)² texels, whose weighted sum stays finite if they
-    /// are tame.
+    /// finite at `st`, when the lookup's level is `il` exactly. There the
+    /// footprint's minor axis is at most half a texel, and its major at
+    /// most `max_aniso` times that (32 texels at most, as the gate below
+    /// has it). Its ellipse holds the unit disk around the centre (its
+    /// matrix is the inverse of the identity plus a positive semi-definite
+    /// footprint): `Ellipse::new`'s `a·c − b²/4` cancels, but for such a
+    /// thin footprint its rounding is a few 10⁻⁵ of it, no more. So the
+    /// texel nearest the centre passes the test, with a margin while
+    /// coordinates are below 2²⁰ texels, and the weights' sum is positive.
+    /// The box holds a few thousand texels at most, whose weighted sum
+    /// stays finite if they are tame. (A larger or non-positive `max_aniso`
+    /// from a scene takes both levels: past a few thousand the ellipse's
+    /// determinant can round to zero or below.)
     fn next_is_finite(&self, il: usize, st: Vec2) -> bool {
         const FAR: f32 = (1 << 20) as f32;
         let (l0, next) = (&self.pyramid[0], self.pyramid.get(il + 1));
         next.or(self.pyramid.last()).is_some_and(|l| l.tame)
-            && self.max_aniso <= 1e4
+            && self.max_aniso > 0.0
+            && self.max_aniso <= 64.0
             && st.x.abs() * (l0.w as f32) < FAR
             && st.y.abs() * (l0.h as f32) < FAR
     }

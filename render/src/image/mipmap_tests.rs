@@ -181,6 +181,67 @@ fn one_level_where_the_next_weighs_nothing_gives_the_same_bits() {
     }
 }
 
+/// Both levels where one could give other bits: an anisotropy clamp past
+/// the gate (1e4, whose thin diagonal footprints round the ellipse's
+/// determinant to zero or below on the next level, so that level's sum is
+/// NaN while the first's is not), a negative one, and a first level whose
+/// sum is −0 under a next level of positive texels (−0 + 0 is +0).
+#[test]
+fn one_level_is_not_taken_where_it_would_change_bits() {
+    let mut rng = Rng::new(9);
+    let side = 1024;
+    let texels: Vec<Spectrum> = (0..side * side)
+        .map(|_| Spectrum::new(rng.uniform_f32(), rng.uniform_f32(), rng.uniform_f32()))
+        .collect();
+    let same = |m: &MipMap<Spectrum>, st: Vec2, d0: Vec2, d1: Vec2| {
+        let (one, both) =
+            (m.lookup_ewa_with(st, d0, d1, true), m.lookup_ewa_with(st, d0, d1, false));
+        for k in 0..3 {
+            assert_eq!(
+                one[k].to_bits(),
+                both[k].to_bits(),
+                "{st:?} {d0:?} {d1:?}: {one:?} {both:?}"
+            );
+        }
+        both
+    };
+    let bits = |x: u32, y: u32| Vec2::new(f32::from_bits(x), f32::from_bits(y));
+    let thin = MipMap::new(side, side, texels.clone(), false, 1e4, WrapMode::Repeat);
+    // A review's case: minor 0.999/1024, aspect 9999; the second level's
+    // determinant is −4.8e-7, its box empty.
+    let (st, d0, d1) =
+        (bits(1039643178, 1056765017), bits(3238080850, 3232704300), bits(974094316, 3126046911));
+    assert!(same(&thin, st, d0, d1).has_nan());
+    let negative = MipMap::new(side, side, texels, false, -1.0, WrapMode::Repeat);
+    for i in 0..20 {
+        // Magnified, thin: level 0, both levels' boxes long and narrow.
+        let st = Vec2::new(rng.uniform_f32(), rng.uniform_f32());
+        let minor = 0.9 * rng.uniform_f32() / side as f32;
+        let (s, c) = math::sin_cos(6.3 * rng.uniform_f32());
+        let aspect = 1e3 + 9e3 * rng.uniform_f32();
+        let (d0, d1) = (Vec2::new(c, s) * minor * aspect, Vec2::new(-s, c) * minor);
+        same(if i % 2 == 0 { &thin } else { &negative }, st, d0, d1);
+    }
+    // A first level of +0 texels, a few the smallest negative float,
+    // sums to −0 in a long footprint (one such texel, weights summing past
+    // 2); the levels past it are made positive.
+    let texels =
+        (0..256).map(|i| Spectrum::new(if i % 11 == 0 { -1e-45 } else { 0.0 }, 0.25, 0.25));
+    let mut m = MipMap::new(16, 16, texels.collect(), false, 8.0, WrapMode::Repeat);
+    for l in m.pyramid.iter_mut().skip(1) {
+        *l = Level::new(l.w, l.h, vec![Spectrum::new(0.5, 0.5, 0.5); l.w * l.h]);
+    }
+    let mut negative_zeros = 0;
+    for _ in 0..2000 {
+        let st = Vec2::new(rng.uniform_f32(), rng.uniform_f32());
+        let (s, c) = math::sin_cos(6.3 * rng.uniform_f32());
+        let (d0, d1) = (Vec2::new(c, s) * 6.0 / 16.0, Vec2::new(-s, c) * 0.9 / 16.0);
+        negative_zeros += usize::from(m.ewa(0, st, d0, d1, true).has_negative_zero());
+        same(&m, st, d0, d1);
+    }
+    assert!(negative_zeros > 50, "{negative_zeros} lookups summed to -0");
+}
+
 #[test]
 fn a_negative_zero_is_told_apart() {
     assert!((-0.0f32).has_negative_zero() && !0.0f32.has_negative_zero());

@@ -12,7 +12,8 @@ pub trait Texel: Copy + Default + Add<Output = Self> + Mul<f32, Output = Self> {
     /// The value clamped below at zero.
     fn clamp_non_negative(self) -> Self;
     /// Whether every channel is finite and at most 10²⁸ in size, so that
-    /// an EWA sum of up to 10¹⁰ weighted texels stays finite.
+    /// an EWA sum of up to 10¹⁰ weighted texels stays finite (a lookup
+    /// that takes one level sums a few thousand at most).
     fn tame(self) -> bool;
     /// Whether a channel is −0, the one value that adding +0 changes.
     fn has_negative_zero(self) -> bool;
