@@ -189,10 +189,17 @@ pub(crate) fn misses<H>(a: f32, b: f32, c: f32, eval: impl Fn(f32) -> Option<H>)
     if !(discrim >= 0.0) {
         return true;
     }
-    // `quadratic_with_root`'s values.
-    let root = discrim.sqrt() as f32;
-    let q = if b < 0.0 { -0.5 * (b - root) } else { -0.5 * (b + root) };
-    eval(q / a).is_none() && eval(c / q).is_none()
+    let (t0, t1) = roots(a, b, c, discrim.sqrt() as f32, b < 0.0);
+    eval(t0).is_none() && eval(t1).is_none()
+}
+
+/// pbrt-v3's two roots `q/a` and `c/q` (unordered) given the square root
+/// of the discriminant, as values or with bounds: [`misses`] and
+/// [`quadratic_with_root`] compute the same values through it.
+#[inline(always)]
+fn roots<T: Arith>(a: T, b: T, c: T, root: T, b_negative: bool) -> (T, T) {
+    let q = T::from(-0.5) * if b_negative { b - root } else { b + root };
+    (q / a, c / q)
 }
 
 /// A quadric whose coefficients are written once for values and bounds.
@@ -253,9 +260,7 @@ pub fn quadratic_with_discriminant(
 #[inline]
 pub fn quadratic_with_root(a: EFloat, b: EFloat, c: EFloat, root: f64) -> (EFloat, EFloat) {
     let float_root = EFloat::new(root as f32, (MACHINE_EPSILON as f64 * root) as f32);
-    let q = if b.v < 0.0 { -0.5 * (b - float_root) } else { -0.5 * (b + float_root) };
-    let mut t0 = q / a;
-    let mut t1 = c / q;
+    let (mut t0, mut t1) = roots(a, b, c, float_root, b.v < 0.0);
     if t0.v > t1.v {
         std::mem::swap(&mut t0, &mut t1);
     }
