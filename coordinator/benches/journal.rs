@@ -4,12 +4,17 @@
 //! temporary directory, as fast as they come, and prints wall and CPU
 //! microseconds per tile (this process's CPU: the journal's writer thread
 //! does the work, encoding each tile too) and the bytes per tile on disk (database, WAL and tile
-//! logs). Medians of 5 runs.
+//! logs). Then it ends the job with a 2048² image and its error map, as
+//! the coordinator does, and prints the CPU and wall milliseconds until
+//! that ending is committed. Medians of 5 runs.
 
 use farm_common::film::{FilmTile, Pixel};
 use farm_common::geometry::{Bounds2i, Point2i};
+use farm_common::image::RgbImage;
 use farm_common::stats::RayStats;
-use farm_coordinator::state::{encode_tile, Command, Journal};
+use farm_coordinator::estimate::ErrorEstimate;
+use farm_coordinator::scheduler::FinishedJob;
+use farm_coordinator::state::{encode_tile, Command, Ending, Journal};
 use std::time::Instant;
 
 const TILES: u32 = 16_384;
@@ -50,6 +55,27 @@ fn main() {
     // The film's tile, shared with the journal as the event loop shares it.
     let tile = std::sync::Arc::new(tile);
     let (mut wall, mut cpu, mut bytes) = (Vec::new(), Vec::new(), 0u64);
+    let (mut end_wall, mut end_cpu) = (Vec::new(), Vec::new());
+    let side = 2048usize;
+    let finished = std::sync::Arc::new(FinishedJob {
+        image: RgbImage {
+            width: side,
+            height: side,
+            pixels: (0..side * side).map(|i| [i as f32, 0.5, 0.25]).collect(),
+        },
+        spp: 16,
+        render_seconds: 1.0,
+        stats: RayStats::default(),
+        error: Some(ErrorEstimate {
+            fireflies: None,
+            width: side,
+            height: side,
+            per_pixel: (0..side * side).map(|i| i as f32 * 1e-9).collect(),
+            rel_mse: 1e-3,
+        }),
+        passes: Vec::new(),
+        stopped: None,
+    });
     for run in 0..RUNS {
         let dir =
             std::env::temp_dir().join(format!("farm-journal-bench-{}-{run}", std::process::id()));
@@ -66,6 +92,12 @@ fn main() {
         wall.push(t.elapsed().as_secs_f64());
         cpu.push(cpu_seconds() - c);
         bytes = disk_bytes(&dir);
+        let (t, c) = (Instant::now(), cpu_seconds());
+        let image = Some(finished.clone());
+        journal.send(Command::Ended { job: 1, ending: Ending::Done, image });
+        rt.block_on(journal.flush());
+        end_wall.push(t.elapsed().as_secs_f64());
+        end_cpu.push(cpu_seconds() - c);
         drop(journal);
         let _ = std::fs::remove_dir_all(&dir);
     }
@@ -82,4 +114,6 @@ fn main() {
         per_tile(median(&mut cpu)),
         bytes as f64 / TILES as f64
     );
+    println!("ending the job with its {side}×{side} image: wall ms, CPU ms");
+    println!("{:>12.0} {:>12.0}", 1e3 * median(&mut end_wall), 1e3 * median(&mut end_cpu));
 }

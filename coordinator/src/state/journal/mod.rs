@@ -8,11 +8,16 @@
 //! that must see earlier writes (a finished job's image) go down the same
 //! channel, so they are answered in order. Accepted tiles are the bulk of
 //! what is written; they go to a log file per active job beside the
-//! database ([`tiles`]), handed to the OS before the batch's commit.
+//! database ([`tiles`]), handed to the OS before the batch's commit. A
+//! finished job's image goes to a file of its own ([`images`]), synced
+//! before the commit that ends the job.
 
+mod images;
+mod records;
 mod restore;
 mod tiles;
 
+use images::Images;
 use tiles::TileLogs;
 
 use super::StateError;
@@ -263,10 +268,19 @@ impl Journal {
         let active: Vec<u64> =
             restored.jobs.iter().filter(|j| j.ending.is_none()).map(|j| j.id).collect();
         logs.remove_all_but(&active);
+        let image_dir = db.map(|p| p.with_extension("images"));
+        let mut images = Images::open(image_dir.clone()).map_err(|e| {
+            let dir = image_dir.unwrap_or_default();
+            StateError::Io(format!("cannot create {}", dir.display()), e)
+        })?;
+        let ended: Vec<u64> =
+            restored.jobs.iter().filter(|j| j.ending.is_some()).map(|j| j.id).collect();
+        images.remove_all_but(&ended);
         let (tx, rx) = mpsc::channel();
+        let files = Files { logs, images, encoded: Vec::new() };
         std::thread::Builder::new()
             .name("farm-journal".into())
-            .spawn(move || writer(conn, logs, rx))
+            .spawn(move || writer(conn, files, rx))
             .map_err(|e| StateError::Io("cannot start the journal's thread".into(), e))?;
         Ok((Journal { tx }, restored))
     }
@@ -317,9 +331,25 @@ impl Journal {
     }
 }
 
-fn writer(mut conn: Connection, mut logs: TileLogs, rx: mpsc::Receiver<Command>) {
-    // Each tile is encoded here, into this one buffer, then appended.
-    let mut encoded = Vec::new();
+/// What the writer keeps beside the database.
+struct Files {
+    logs: TileLogs,
+    images: Images,
+    /// Each tile is encoded here, into this one buffer, then appended.
+    encoded: Vec<u8>,
+}
+
+/// What a batch leaves to do once it is committed.
+#[derive(Default)]
+struct After {
+    replies: Vec<Reply>,
+    /// Jobs whose tile logs go.
+    ended: Vec<u64>,
+    /// Jobs whose images go.
+    purged: Vec<u64>,
+}
+
+fn writer(mut conn: Connection, mut files: Files, rx: mpsc::Receiver<Command>) {
     while let Ok(first) = rx.recv() {
         let mut batch = vec![first];
         while batch.len() < 1024 {
@@ -329,26 +359,30 @@ fn writer(mut conn: Connection, mut logs: TileLogs, rx: mpsc::Receiver<Command>)
             }
         }
         let n = batch.len();
-        let (mut replies, mut ended) = (Vec::new(), Vec::new());
+        let mut after = After::default();
         let result = (|| -> rusqlite::Result<()> {
             let tx = conn.transaction()?;
             for c in batch {
-                apply(&tx, &mut logs, c, &mut encoded, &mut replies, &mut ended)?;
+                apply(&tx, &mut files, c, &mut after)?;
             }
             // Tiles reach the OS before the commit that could end their job.
-            logs.flush();
+            files.logs.flush();
             tx.commit()
         })();
         if let Err(e) = result {
             error!(error = %e, changes = n, "the journal could not commit: these changes are not durable");
         }
         // An ended job's tiles go once its ending is committed: a crash in
-        // between leaves a log that the next start deletes.
-        for job in ended {
-            logs.remove(job);
+        // between leaves a log that the next start deletes. So do a purged
+        // job's tiles and image.
+        for job in after.ended {
+            files.logs.remove(job);
+        }
+        for job in after.purged {
+            files.images.remove(job);
         }
         // Answers go out after the commit, so a flush means "on disk".
-        for r in replies {
+        for r in after.replies {
             r();
         }
     }
@@ -359,12 +393,11 @@ type Reply = Box<dyn FnOnce() + Send>;
 
 fn apply(
     tx: &rusqlite::Transaction<'_>,
-    logs: &mut TileLogs,
+    files: &mut Files,
     c: Command,
-    encoded: &mut Vec<u8>,
-    replies: &mut Vec<Reply>,
-    ended: &mut Vec<u64>,
+    after: &mut After,
 ) -> rusqlite::Result<()> {
+    let Files { logs, images, encoded } = files;
     match c {
         Command::Submitted { id, spec, detach, blobs } => {
             let bytes = postcard::to_stdvec(&*spec).unwrap_or_default();
@@ -424,11 +457,18 @@ fn apply(
             )?;
             // Rows of tiles journalled before the tile logs.
             tx.execute("DELETE FROM tiles WHERE job = ?1", params![job as i64])?;
-            ended.push(job);
+            after.ended.push(job);
+            let Some(image) = image else { return Ok(()) };
+            let events = job_events(&JobUpdate::Finished(image));
+            // A `Vec` grows to take any message: encoding it cannot fail.
+            let encode = |e: &farm_proto::v1::JobEvent, buf: &mut Vec<u8>| {
+                let _ = e.encode(buf);
+            };
+            let Err(e) = images.store(job, &events, encode) else { return Ok(()) };
+            error!(job, error = %e, "cannot write a finished image's file: it goes in the database");
             let mut st = tx.prepare_cached(
                 "INSERT OR REPLACE INTO images (job, seq, event) VALUES (?1, ?2, ?3)",
             )?;
-            let events = image.map(|f| job_events(&JobUpdate::Finished(f))).unwrap_or_default();
             for (seq, ev) in events.iter().enumerate() {
                 st.execute(params![job as i64, seq as i64, ev.encode_to_vec()])?;
             }
@@ -448,7 +488,8 @@ fn apply(
                     tx.execute(&format!("DELETE FROM {table} WHERE job = ?1"), params![job])?;
                 }
                 tx.execute("DELETE FROM jobs WHERE id = ?1", params![job])?;
-                ended.push(job as u64);
+                after.ended.push(job as u64);
+                after.purged.push(job as u64);
             }
             let mut st = tx.prepare(
                 "SELECT hash FROM blobs WHERE stored_at < ?1
@@ -461,7 +502,7 @@ fn apply(
             for h in &hashes {
                 tx.execute("DELETE FROM blobs WHERE hash = ?1", params![h.as_slice()])?;
             }
-            replies.push(Box::new(move || {
+            after.replies.push(Box::new(move || {
                 let _ = reply.send(hashes);
             }));
         }
@@ -473,13 +514,17 @@ fn apply(
             .execute(params![hash.as_slice(), size as i64, owner, unix_now()])?;
         }
         Command::ReadImage { job, reply } => {
+            if let Some(events) = images.read(job) {
+                let _ = reply.send(events);
+                return Ok(());
+            }
             let mut st =
                 tx.prepare_cached("SELECT event FROM images WHERE job = ?1 ORDER BY seq")?;
             let events: Vec<Vec<u8>> =
                 st.query_map(params![job as i64], |r| r.get(0))?.filter_map(Result::ok).collect();
             let _ = reply.send(events);
         }
-        Command::Flush(reply) => replies.push(Box::new(move || {
+        Command::Flush(reply) => after.replies.push(Box::new(move || {
             let _ = reply.send(());
         })),
     }

@@ -250,11 +250,35 @@ async fn a_finished_image_is_read_back_as_the_events_a_watcher_is_sent() {
         // A read is answered before its batch commits; a flush after.
         j.flush().await;
     }
+    let file = dir.join("state.images").join("5.img");
+    assert!(file.exists(), "the image is a file beside the database");
+    // A job that ended before images had files keeps its rows; a file
+    // whose job never ended (its ending's commit lost) is swept.
+    let conn = Connection::open(&db).unwrap();
+    conn.execute(
+        "INSERT INTO jobs (id, spec, state, detach, submitted_at) VALUES (6, x'', 'done', 0, 0)",
+        [],
+    )
+    .unwrap();
+    for (seq, ev) in want.iter().enumerate() {
+        conn.execute(
+            "INSERT INTO images (job, seq, event) VALUES (6, ?1, ?2)",
+            params![seq as i64, ev],
+        )
+        .unwrap();
+    }
+    drop(conn);
+    let stray = dir.join("state.images").join("7.img");
+    std::fs::copy(&file, &stray).unwrap();
     let (j, restored) = Journal::open(Some(&db)).unwrap();
-    assert_eq!(restored.jobs.len(), 1);
+    assert_eq!(restored.jobs.len(), 1, "job 6's spec does not decode: skipped");
+    assert!(!stray.exists(), "an image whose job did not end is swept");
     assert_eq!(read(&j, 5).await.unwrap(), want, "after a restart");
-    assert!(purge(&j, vec![5]).await.is_empty());
+    assert_eq!(read(&j, 6).await.unwrap(), want, "rows from before image files");
+    assert!(purge(&j, vec![5, 6]).await.is_empty());
     assert!(read(&j, 5).await.unwrap().is_empty(), "a purged job's image is forgotten");
+    assert!(read(&j, 6).await.unwrap().is_empty(), "and so are its rows");
+    assert!(!file.exists(), "a purged job's image file is deleted");
     std::fs::remove_dir_all(&dir).ok();
 }
 

@@ -8,28 +8,26 @@
 //! by row when the job ended. Appended to a file, a tile is written once,
 //! and an ended job's tiles go with one unlink.
 //!
-//! A log is `FARMTLG1` then records: payload length (u32 LE), CRC-32 of
-//! the payload (u32 LE), payload = key (u32 LE, pass × tiles + tile) and the
-//! postcard-encoded tile. Reading stops at the first record that is short
-//! or fails its check (a write the process died in) and cuts the file
-//! there, so records appended later stay readable. A key written twice
-//! keeps its last record, as the rows' `INSERT OR REPLACE` did.
+//! A log is `FARMTLG1` then records ([`super::records`]) whose key is
+//! pass × tiles + tile and whose bytes are the postcard-encoded tile.
+//! Reading cuts the file at the first record that is short or fails its
+//! check (a write the process died in), so records appended later stay
+//! readable. A key written twice keeps its last record, as the rows'
+//! `INSERT OR REPLACE` did.
 //!
 //! Logs are written to the OS at the end of every batch the journal
 //! commits, so they survive the process being killed, as the WAL's
 //! commits do, and synced to the disk at most once a second.
 
+use super::records::{self, Found};
 use std::collections::{BTreeMap, HashMap};
 use std::fs::File;
-use std::io::{BufWriter, Read, Write};
+use std::io::{BufReader, BufWriter, Write};
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 use tracing::{error, warn};
 
 const MAGIC: &[u8; 8] = b"FARMTLG1";
-/// Far more than any record (a tile is about 8 KB): a longer length is a
-/// corrupt one, not allocated.
-const MAX_RECORD: u32 = 64 << 20;
 /// How often written logs are synced to the disk.
 const SYNC_EVERY: Duration = Duration::from_secs(1);
 
@@ -76,12 +74,7 @@ impl TileLogs {
                 }
             }
         };
-        let len = 4 + data.len() as u32;
-        let mut crc = crc32fast::Hasher::new();
-        crc.update(&key.to_le_bytes());
-        crc.update(data);
-        let record = [len.to_le_bytes(), crc.finalize().to_le_bytes(), key.to_le_bytes()];
-        let written = w.write_all(record.as_flattened()).and_then(|_| w.write_all(data));
+        let written = records::write(w, key, data);
         if let Err(e) = written {
             error!(job, error = %e, "cannot write the job's tile log: this tile is not durable");
         }
@@ -163,39 +156,23 @@ fn open_for_append(path: &Path) -> std::io::Result<File> {
 
 /// The records of the log at `path`; a torn or corrupt tail is cut off.
 fn read_log(path: &Path) -> std::io::Result<BTreeMap<u32, Vec<u8>>> {
-    let mut f = File::options().read(true).write(true).open(path)?;
-    let mut bytes = Vec::new();
-    f.read_to_end(&mut bytes)?;
-    let mut tiles = BTreeMap::new();
-    if bytes.len() < MAGIC.len() || &bytes[..MAGIC.len()] != MAGIC {
+    let f = File::options().read(true).write(true).open(path)?;
+    let size = f.metadata()?.len();
+    let found = records::read(&mut BufReader::new(&f), MAGIC, size)?;
+    let Found::Records { records, end, complete } = found else {
         warn!(path = %path.display(), "not a tile log: its tiles render again");
         f.set_len(0)?;
-        return Ok(tiles);
-    }
-    let mut at = MAGIC.len();
-    let word = |b: &[u8], i: usize| u32::from_le_bytes([b[i], b[i + 1], b[i + 2], b[i + 3]]);
-    while bytes.len() - at >= 8 {
-        let (len, crc) = (word(&bytes, at), word(&bytes, at + 4));
-        let end = at + 8 + len as usize;
-        if !(4..=MAX_RECORD).contains(&len) || end > bytes.len() {
-            break;
-        }
-        let payload = &bytes[at + 8..end];
-        if crc32fast::hash(payload) != crc {
-            break;
-        }
-        tiles.insert(word(payload, 0), payload[4..].to_vec());
-        at = end;
-    }
-    if at < bytes.len() {
+        return Ok(BTreeMap::new());
+    };
+    if !complete {
         warn!(
             path = %path.display(),
-            bytes = bytes.len() - at,
+            bytes = size - end,
             "a tile log ends in an incomplete record (the process died writing it): cut off"
         );
-        f.set_len(at as u64)?;
+        f.set_len(end)?;
     }
-    Ok(tiles)
+    Ok(records.into_iter().collect())
 }
 
 #[cfg(test)]

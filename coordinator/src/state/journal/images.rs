@@ -1,0 +1,206 @@
+//! Finished jobs' images, one file per job beside the database rather
+//! than rows of it.
+//!
+//! An image is the bulk of what a job leaves (66 MB of events for a
+//! 2048² film). As rows it went through the WAL, was checksummed there,
+//! written again at checkpoint, and its pages stayed in the database file
+//! as free pages once the job was purged: about 90 ms of the coordinator's
+//! CPU for a 2048² job, a fifth of the job's own cost (`cargo bench -p
+//! farm-tests --bench farm`, capacity table). As a file it is written
+//! once and purged with one unlink.
+//!
+//! A file is `FARMIMG1` then one record ([`super::records`]) per event,
+//! its key the event's place. It is written whole and synced, with its
+//! directory, before the commit that ends its job: a job the database
+//! calls done has its image on disk, as when the rows shared its commit.
+//! A file whose job is not (yet) done in the database is a leftover of a
+//! crash before that commit, swept when the journal opens.
+//!
+//! Without a directory (an in-memory journal) images are held in memory.
+//! Jobs that ended before images had files keep their rows, which are
+//! still read.
+
+use super::records::{self, Found};
+use std::collections::HashMap;
+use std::fs::File;
+use std::io::{BufReader, BufWriter, Write};
+use std::path::{Path, PathBuf};
+use tracing::{error, warn};
+
+const MAGIC: &[u8; 8] = b"FARMIMG1";
+
+/// Where finished images are kept.
+pub(super) enum Images {
+    /// One file per job in this directory.
+    Files(PathBuf),
+    /// In memory, each job's encoded events.
+    Memory(HashMap<u64, Vec<Vec<u8>>>),
+}
+
+impl Images {
+    /// Images in `dir`, created if missing; in memory without one.
+    pub fn open(dir: Option<PathBuf>) -> std::io::Result<Images> {
+        match dir {
+            Some(d) => {
+                std::fs::create_dir_all(&d)?;
+                Ok(Images::Files(d))
+            }
+            None => Ok(Images::Memory(HashMap::new())),
+        }
+    }
+
+    fn path(dir: &Path, job: u64) -> PathBuf {
+        dir.join(format!("{job}.img"))
+    }
+
+    /// Stores `job`'s image as `events`, each encoded by `encode` into the
+    /// buffer it is given; on disk and synced when this returns `Ok`.
+    pub fn store<E>(
+        &mut self,
+        job: u64,
+        events: &[E],
+        encode: impl Fn(&E, &mut Vec<u8>),
+    ) -> std::io::Result<()> {
+        let dir = match self {
+            Images::Memory(m) => {
+                let encoded = events
+                    .iter()
+                    .map(|e| {
+                        let mut buf = Vec::new();
+                        encode(e, &mut buf);
+                        buf
+                    })
+                    .collect();
+                m.insert(job, encoded);
+                return Ok(());
+            }
+            Images::Files(dir) => dir,
+        };
+        let path = Self::path(dir, job);
+        let mut w = BufWriter::with_capacity(1 << 20, File::create(&path)?);
+        w.write_all(MAGIC)?;
+        let mut buf = Vec::new();
+        for (seq, e) in events.iter().enumerate() {
+            buf.clear();
+            encode(e, &mut buf);
+            records::write(&mut w, seq as u32, &buf)?;
+        }
+        let f = w.into_inner().map_err(|e| e.into_error())?;
+        f.sync_data()?;
+        // The file's name must outlive a power cut as well as its bytes.
+        File::open(dir)?.sync_all()
+    }
+
+    /// `job`'s image events, or `None` when no image of it is kept here
+    /// (the caller then looks for rows). A file cut short or corrupt is
+    /// an image lost: an empty list, and an error logged.
+    pub fn read(&self, job: u64) -> Option<Vec<Vec<u8>>> {
+        let dir = match self {
+            Images::Memory(m) => return m.get(&job).cloned(),
+            Images::Files(dir) => dir,
+        };
+        let path = Self::path(dir, job);
+        let read = File::open(&path).and_then(|f| {
+            let size = f.metadata()?.len();
+            records::read(&mut BufReader::with_capacity(1 << 20, f), MAGIC, size)
+        });
+        match read {
+            Err(e) if e.kind() == std::io::ErrorKind::NotFound => None,
+            Ok(Found::Records { records, complete: true, .. })
+                if records.iter().enumerate().all(|(i, (k, _))| *k as usize == i) =>
+            {
+                Some(records.into_iter().map(|(_, bytes)| bytes).collect())
+            }
+            Ok(_) => {
+                error!(job, path = %path.display(), "a stored image is cut short or corrupt: it is lost");
+                Some(Vec::new())
+            }
+            Err(e) => {
+                error!(job, path = %path.display(), error = %e, "cannot read a stored image");
+                Some(Vec::new())
+            }
+        }
+    }
+
+    /// Forgets `job`'s image (purged).
+    pub fn remove(&mut self, job: u64) {
+        let dir = match self {
+            Images::Memory(m) => {
+                m.remove(&job);
+                return;
+            }
+            Images::Files(dir) => dir,
+        };
+        match std::fs::remove_file(Self::path(dir, job)) {
+            Err(e) if e.kind() != std::io::ErrorKind::NotFound => {
+                warn!(job, error = %e, "cannot delete a purged job's image")
+            }
+            _ => {}
+        }
+    }
+
+    /// Deletes the files of jobs not in `ended` (stored just before a
+    /// crash that kept their ending from being committed).
+    pub fn remove_all_but(&mut self, ended: &[u64]) {
+        let Images::Files(dir) = self else { return };
+        let Ok(entries) = std::fs::read_dir(&*dir) else { return };
+        let strays: Vec<u64> = entries
+            .flatten()
+            .filter_map(|e| e.file_name().to_str()?.strip_suffix(".img")?.parse().ok())
+            .filter(|j| !ended.contains(j))
+            .collect();
+        for job in strays {
+            self.remove(job);
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn encode(e: &&[u8], buf: &mut Vec<u8>) {
+        buf.extend_from_slice(e);
+    }
+
+    #[test]
+    fn images_read_back_whole_and_a_damaged_one_is_lost_not_misread() {
+        let tmp = tempfile::Builder::new().prefix("farm-images-").tempdir().unwrap();
+        let dir = tmp.path().join("farm.images");
+        let events: [&[u8]; 3] = [b"head", &[7; 5000], b""];
+        let want: Vec<Vec<u8>> = events.iter().map(|e| e.to_vec()).collect();
+        let mut files = Images::open(Some(dir.clone())).unwrap();
+        let mut memory = Images::open(None).unwrap();
+        for images in [&mut files, &mut memory] {
+            images.store(4, &events, encode).unwrap();
+            images.store(5, &events[..1], encode).unwrap();
+            assert_eq!(images.read(4), Some(want.clone()));
+            assert_eq!(images.read(6), None, "no image: the caller looks for rows");
+            images.remove(4);
+            assert_eq!(images.read(4), None);
+            assert_eq!(images.read(5), Some(want[..1].to_vec()));
+        }
+        files.store(4, &events, encode).unwrap();
+        let path = dir.join("4.img");
+        let bytes = std::fs::read(&path).unwrap();
+        // Cut short, or a bit flipped in the last event: lost, not partly read.
+        std::fs::write(&path, &bytes[..bytes.len() - 1]).unwrap();
+        assert_eq!(files.read(4), Some(vec![]));
+        let mut flipped = bytes.clone();
+        flipped[bytes.len() - 13] ^= 1;
+        std::fs::write(&path, &flipped).unwrap();
+        assert_eq!(files.read(4), Some(vec![]));
+        std::fs::write(&path, b"FARMTLG1").unwrap();
+        assert_eq!(files.read(4), Some(vec![]));
+        // Records out of order are not an image this writer wrote.
+        let mut swapped = MAGIC.to_vec();
+        records::write(&mut swapped, 1, b"b").unwrap();
+        records::write(&mut swapped, 0, b"a").unwrap();
+        std::fs::write(&path, &swapped).unwrap();
+        assert_eq!(files.read(4), Some(vec![]));
+        // Strays (a job whose ending never committed) are swept.
+        files.remove_all_but(&[5]);
+        assert!(!path.exists());
+        assert_eq!(files.read(5), Some(want[..1].to_vec()));
+    }
+}
