@@ -102,6 +102,10 @@ struct Capacity {
     cpu_steady: f64,
     wall_image: f64,
     cpu_image: f64,
+    /// CPU seconds from the image received to the coordinator going
+    /// quiet ([`quiet`]): what it still does for the job once the client
+    /// has its image, such as the journal storing it.
+    cpu_after: f64,
     /// The longest the coordinator's event loop took to answer a probe
     /// while the job ran ([`probe_loop`]), in seconds.
     stall: f64,
@@ -136,6 +140,22 @@ async fn probe_loop(url: String, stop: Arc<std::sync::atomic::AtomicBool>) -> f6
         tokio::time::sleep(Duration::from_millis(2)).await;
     }
     longest
+}
+
+/// The coordinator's CPU seconds once it has gone quiet: read every 50 ms
+/// until two readings agree (its /proc counters tick every 10 ms), at
+/// most 10 s.
+async fn quiet(cpu: impl Fn() -> Result<f64, String>) -> Result<f64, String> {
+    let mut last = cpu()?;
+    for _ in 0..200 {
+        tokio::time::sleep(Duration::from_millis(50)).await;
+        let now = cpu()?;
+        if now == last {
+            return Ok(now);
+        }
+        last = now;
+    }
+    Err("the coordinator did not go quiet within 10 s of the image".into())
 }
 
 /// The progress events a run reads the coordinator's CPU at: the first
@@ -216,9 +236,10 @@ async fn capacity_run(
     let loop_busy = loop_busy(&url).await? - busy0;
     stop.store(true, std::sync::atomic::Ordering::Relaxed);
     let stall = probe.await.unwrap_or(f64::NAN);
+    let cpu_after = quiet(cpu).await? - cpu0 - cpu_image;
     drop(procs);
     let cpu_steady = marks.per_tile().ok_or("no progress events at 10% and 90%")?;
-    Ok(Capacity { register, cpu_steady, wall_image, cpu_image, stall, loop_busy })
+    Ok(Capacity { register, cpu_steady, wall_image, cpu_image, cpu_after, stall, loop_busy })
 }
 
 pub(super) fn capacity_table(rt: &Runtime) {
@@ -242,11 +263,11 @@ pub(super) fn capacity_table(rt: &Runtime) {
         Err(_) => FAKE_WORKERS.to_vec(),
     };
     println!(
-        "{:>7} {:>7} {:>7} | {:>10} {:>12} | {:>10} {:>10} {:>12} {:>10} | {:>8} {:>8}",
-        "", "", "", "10-90%", "", "to image", "", "", "loop", "job", "stall"
+        "{:>7} {:>7} {:>7} | {:>10} {:>12} | {:>10} {:>10} {:>12} {:>10} | {:>8} {:>8} {:>8}",
+        "", "", "", "10-90%", "", "to image", "", "", "loop", "job", "after", "stall"
     );
     println!(
-        "{:>7} {:>7} {:>7} | {:>10} {:>12} | {:>10} {:>10} {:>12} {:>10} | {:>8} {:>8}",
+        "{:>7} {:>7} {:>7} | {:>10} {:>12} | {:>10} {:>10} {:>12} {:>10} | {:>8} {:>8} {:>8}",
         "workers",
         "tiles",
         "joined",
@@ -256,6 +277,7 @@ pub(super) fn capacity_table(rt: &Runtime) {
         "µs/tile",
         "tiles/s/core",
         "µs/tile",
+        "ms",
         "ms",
         "ms"
     );
@@ -282,7 +304,7 @@ pub(super) fn capacity_table(rt: &Runtime) {
         let steady = median(&|c| c.cpu_steady);
         let (wi, ci) = (median(&|c| c.wall_image), median(&|c| c.cpu_image));
         println!(
-            "{workers:>7} {n:>7} {:>7.2} | {:>10.1} {:>12.0} | {:>10.0} {:>10.1} {:>12.0} {:>10.1} | {:>8.0} {:>8.1}",
+            "{workers:>7} {n:>7} {:>7.2} | {:>10.1} {:>12.0} | {:>10.0} {:>10.1} {:>12.0} {:>10.1} | {:>8.0} {:>8.0} {:>8.1}",
             median(&|c| c.register),
             1e6 * steady,
             1.0 / steady,
@@ -291,6 +313,7 @@ pub(super) fn capacity_table(rt: &Runtime) {
             rate(ci),
             per_tile(median(&|c| c.loop_busy)),
             1e3 * median(&|c| c.cpu_image - c.cpu_steady * n as f64),
+            1e3 * median(&|c| c.cpu_after),
             1e3 * median(&|c| c.stall),
         );
     }
@@ -306,7 +329,9 @@ pub(super) fn capacity_table(rt: &Runtime) {
          (farm_event_loop_busy_seconds_total: the part done one event at a time, which \
          more cores do not share; the stall probe's events included). Job = the coordinator's CPU \
          to image less 10-90%'s cost for every tile: the job's own start and end (its film, \
-         estimate and image), which grow with pixels. Stall = the longest the coordinator's \
+         estimate and image), which grow with pixels. After = the coordinator's CPU from the \
+         image received to the process going quiet (no CPU for 50 ms): what it still does for \
+         the job, such as its journal storing the image. Stall = the longest the coordinator's \
          event loop took to answer a probe sent every 2 ms while the job ran (two events: a \
          cancel of a job that does not exist). The client's and the fake workers' CPU \
          is left out. The fake workers share {FAKE_CONNECTIONS} connections and ask for \
