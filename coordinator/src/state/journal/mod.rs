@@ -4,7 +4,9 @@
 //! The event loop never waits for the disk: it sends [`Command`]s down a
 //! channel, and the writer commits whatever has queued up in one
 //! transaction (WAL, `synchronous = NORMAL`: a commit survives the process
-//! being killed; only the OS losing power can lose the last few). Reads
+//! being killed; only the OS losing power can lose the last few). Tiles
+//! and hand-outs are committed at most every [`GATHER`], so under load a
+//! transaction holds a run of them rather than one or two. Reads
 //! that must see earlier writes (a finished job's image) go down the same
 //! channel, so they are answered in order. Accepted tiles are the bulk of
 //! what is written; they go to a log file per active job beside the
@@ -29,8 +31,9 @@ use farm_proto::convert::Hash;
 use prost::Message;
 use rusqlite::{params, Connection};
 use std::path::Path;
+use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::{mpsc, Arc};
-use std::time::{SystemTime, UNIX_EPOCH};
+use std::time::{Duration, Instant, SystemTime, UNIX_EPOCH};
 use tokio::sync::oneshot;
 use tracing::{debug, error};
 
@@ -208,6 +211,8 @@ pub struct Restored {
 #[derive(Clone)]
 pub struct Journal {
     tx: mpsc::Sender<Command>,
+    /// Transactions the writer has committed.
+    commits: Arc<AtomicUsize>,
 }
 
 impl std::fmt::Debug for Journal {
@@ -278,11 +283,13 @@ impl Journal {
         images.remove_all_but(&ended);
         let (tx, rx) = mpsc::channel();
         let files = Files { logs, images, encoded: Vec::new() };
+        let commits = Arc::new(AtomicUsize::new(0));
+        let counted = commits.clone();
         std::thread::Builder::new()
             .name("farm-journal".into())
-            .spawn(move || writer(conn, files, rx))
+            .spawn(move || writer(conn, files, rx, counted))
             .map_err(|e| StateError::Io("cannot start the journal's thread".into(), e))?;
-        Ok((Journal { tx }, restored))
+        Ok((Journal { tx, commits }, restored))
     }
 
     /// Queues a change (dropped, with the coordinator, if the writer died).
@@ -323,6 +330,11 @@ impl Journal {
         });
     }
 
+    /// How many transactions the writer has committed so far.
+    pub fn commits(&self) -> usize {
+        self.commits.load(Ordering::Relaxed)
+    }
+
     /// Waits until everything queued so far is committed.
     pub async fn flush(&self) {
         let (reply, rx) = oneshot::channel();
@@ -349,8 +361,29 @@ struct After {
     purged: Vec<u64>,
 }
 
-fn writer(mut conn: Connection, mut files: Files, rx: mpsc::Receiver<Command>) {
+/// The least time between a commit and the next one that a merged tile or
+/// a hand-out starts. Each transaction costs the writer a wake-up, SQLite's
+/// locks and WAL frames and a write of the tile log: one per tile or two
+/// while tiles came in as fast as the coordinator merged them. Gathering
+/// 2 ms took a third to nearly half off the writer's CPU for a 2048² job
+/// at one worker (perf samples of its thread, 604/727 → 440/401), and
+/// adds at most 2 ms to how long a tile waits to be durable, against the
+/// seconds a tile in flight takes to render again.
+const GATHER: Duration = Duration::from_millis(2);
+
+fn writer(
+    mut conn: Connection,
+    mut files: Files,
+    rx: mpsc::Receiver<Command>,
+    commits: Arc<AtomicUsize>,
+) {
+    let mut committed: Option<Instant> = None;
     while let Ok(first) = rx.recv() {
+        if matches!(first, Command::Merged { .. } | Command::HandedOut { .. }) {
+            if let Some(wait) = committed.and_then(|t| GATHER.checked_sub(t.elapsed())) {
+                std::thread::sleep(wait);
+            }
+        }
         let mut batch = vec![first];
         while batch.len() < 1024 {
             match rx.try_recv() {
@@ -369,6 +402,8 @@ fn writer(mut conn: Connection, mut files: Files, rx: mpsc::Receiver<Command>) {
             files.logs.flush();
             tx.commit()
         })();
+        committed = Some(Instant::now());
+        commits.fetch_add(1, Ordering::Relaxed);
         if let Err(e) = result {
             error!(error = %e, changes = n, "the journal could not commit: these changes are not durable");
         }

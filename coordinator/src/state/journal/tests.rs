@@ -282,6 +282,37 @@ async fn a_finished_image_is_read_back_as_the_events_a_watcher_is_sent() {
     std::fs::remove_dir_all(&dir).ok();
 }
 
+/// Tiles that come in one at a time, faster than [`GATHER`], share
+/// transactions: no more commits than `GATHER`s passed, the first and the
+/// flush's.
+#[tokio::test]
+async fn tiles_coming_in_fast_are_committed_together() {
+    use farm_common::film::FilmTile;
+    let (dir, db) = scratch_db("gather");
+    let (j, _) = Journal::open(Some(&db)).unwrap();
+    j.send(Command::Submitted {
+        id: 1,
+        detach: false,
+        blobs: vec![],
+        spec: Box::new(spec(vec![[1u8; 32]])),
+    });
+    j.flush().await;
+    let tile = Arc::new(FilmTile::new(Bounds2i::new(Point2i::new(0, 0), Point2i::new(16, 16))));
+    let (before, start) = (j.commits(), std::time::Instant::now());
+    for t in 0..400 {
+        j.send(Command::HandedOut { job: 1, tile: t, n: 1 });
+        let (film_tile, stats) = (tile.clone(), RayStats::default());
+        j.send(Command::Merged { job: 1, tile: t, film_tile, stats });
+        std::thread::sleep(Duration::from_micros(50));
+    }
+    j.flush().await;
+    let (commits, took) = (j.commits() - before, start.elapsed());
+    let most = (took.as_micros() / GATHER.as_micros()) as usize + 3;
+    assert!(commits <= most, "{commits} commits in {took:?}: at most {most}");
+    assert!(commits >= 2, "{commits} commits");
+    std::fs::remove_dir_all(&dir).ok();
+}
+
 /// A tile's record has postcard's bytes, which restoring decodes: for
 /// tiles of every size a job's tiles come in (cut by a crop window at
 /// negative coordinates too), with sums of any bits, and large counts.
