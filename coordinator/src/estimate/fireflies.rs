@@ -40,7 +40,7 @@
 //! [`MIN_PIXELS`] fireflies are counted as edge pixels: a lone one is
 //! usually the corner of a light.)
 
-use super::{counted_error, half_weights, pixel_error_against, Against, EPSILON};
+use super::{counted_error, each, half_weights, pixel_error_against, Against, EPSILON, LANES};
 use farm_common::film::{HalfImages, Pixel};
 use std::collections::btree_map::{BTreeMap, Entry};
 
@@ -80,7 +80,7 @@ pub struct Fireflies {
 }
 
 /// A pixel's value (the mean of its channels) and its halves'.
-fn levels(p: &Pixel, scale: f64) -> Option<(f64, f64, f64)> {
+pub(super) fn levels(p: &Pixel, scale: f64) -> Option<(f64, f64, f64)> {
     let (w, w_a, w_b) = half_weights(p)?;
     let mean = |v: [f32; 3]| v.iter().map(|&x| f64::from(x)).sum::<f64>() / 3.0;
     let all = mean(p.contrib);
@@ -109,20 +109,38 @@ const RUN: usize = 2;
 /// its sums where it is needed, since only the suspects' neighbours need it.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Suspects {
-    /// The pixels that pass the firefly test (row-major order).
+    /// The pixels that pass the firefly test (row-major order): their
+    /// error is counted against their own value in the estimate, not
+    /// against their neighbourhood's level (`levelled_errors`), which a
+    /// lone bright pixel would set.
     pub fireflies: Vec<usize>,
     /// The others whose halves are as far apart (row-major order).
     pub edges: Vec<usize>,
 }
 
-impl Suspects {
-    /// Whether pixel `i` passes the firefly test: its error is then counted
-    /// against its own value in the estimate, not against its
-    /// neighbourhood's level (`levelled_errors`), which a lone bright
-    /// pixel would set.
-    pub fn is_firefly(&self, i: usize) -> bool {
-        self.fireflies.binary_search(&i).is_ok()
-    }
+/// Whether each of `LANES` pixels has samples in both halves whose values
+/// lie further apart than [`apart`] allows: the first test of
+/// [`suspects`], each line the same operation on every pixel, in the order
+/// [`levels`] and that test do them.
+#[inline(always)]
+fn far_apart(p: &[Pixel; LANES], scale: f64, spp: f64) -> [bool; LANES] {
+    let mean = |v: [f32; 3]| v.iter().map(|&x| f64::from(x)).sum::<f64>() / 3.0;
+    let w = each(|k| f64::from(p[k].weight));
+    let w_b = each(|k| f64::from(p[k].second_weight));
+    let w_a = each(|k| w[k] - w_b[k]);
+    let all = each(|k| mean(p[k].contrib));
+    let second = each(|k| mean(p[k].second_contrib));
+    let a = each(|k| ((all[k] - second[k]) / w_a[k]).max(0.0) * scale);
+    let b = each(|k| (second[k] / w_b[k]).max(0.0) * scale);
+    let smaller =
+        each(|k| f64::from(p[k].second_weight.min(p[k].weight - p[k].second_weight)) / w[k]);
+    let apart = each(|k| apart(spp * smaller[k]));
+    std::array::from_fn(|k| {
+        let (dark, bright) = (a[k].min(b[k]), a[k].max(b[k]));
+        // A NaN is not close: a suspect, as one pixel at a time had it.
+        let close = bright <= apart[k] * (dark + 0.01);
+        half_weights(&p[k]).is_some() && !close
+    })
 }
 
 /// The [`Suspects`] of a `width` × `height` film whose pixels (row-major)
@@ -137,15 +155,19 @@ pub fn suspects(
     let value_at = |j: usize| value(&pixel(j), scale).unwrap_or(0.0);
     let (mut fireflies, mut edges) = (Vec::new(), Vec::new());
     let mut around = Vec::with_capacity(8);
-    for i in 0..n {
+    // Pixels are tested [`LANES`] at a time (the last ones again at the
+    // film's end), and only the few that are far apart looked at further.
+    let far = (0..n).step_by(LANES).flat_map(|first| {
+        let pixels = std::array::from_fn(|k| pixel((first + k).min(n - 1)));
+        let far = far_apart(&pixels, f64::from(scale), f64::from(spp));
+        (0..LANES).filter(move |&k| far[k] && first + k < n).map(move |k| first + k)
+    });
+    for i in far {
         let p = pixel(i);
-        let Some((full, dark, bright)) = levels(&p, f64::from(scale)) else { continue };
+        let Some((full, _, _)) = levels(&p, f64::from(scale)) else { continue };
         let smaller =
             f64::from(p.second_weight.min(p.weight - p.second_weight)) / f64::from(p.weight);
         let apart = apart(f64::from(spp) * smaller);
-        if bright <= apart * (dark + 0.01) {
-            continue;
-        }
         let (x, y) = (i % width, i / width);
         around.clear();
         for ny in y.saturating_sub(1)..(y + 2).min(height) {
@@ -304,13 +326,7 @@ mod tests {
     /// The suspects of `t` at `spp`, and each pixel's error in its estimate.
     fn errors(t: &FilmTile, spp: u32) -> (Suspects, Vec<f64>) {
         let s = suspects(SIZE, |i| t.pixels[i], 1.0, spp);
-        let e = levelled_errors(
-            SIZE,
-            |i| t.pixels[i],
-            1.0,
-            HalfImages::Independent,
-            |i| s.is_firefly(i),
-        );
+        let e = levelled_errors(SIZE, |i| t.pixels[i], 1.0, HalfImages::Independent, &s.fireflies);
         (s, e)
     }
 

@@ -247,7 +247,7 @@ impl Film {
         let (scale, halves) = (self.geometry.scale, self.halves);
         let pixel = |i| self.sums.pixel(i);
         let suspects = suspects(size, pixel, scale, spp);
-        let errors = levelled_errors(size, pixel, scale, halves, |i| suspects.is_firefly(i));
+        let errors = levelled_errors(size, pixel, scale, halves, &suspects.fireflies);
         let (mut estimate, (sum, counted)) = ErrorEstimate::with_totals(b, &errors)?;
         estimate.fireflies =
             find_fireflies(size, pixel, scale, halves, suspects, &errors, (sum, counted));
