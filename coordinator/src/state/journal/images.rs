@@ -54,7 +54,9 @@ impl Images {
     }
 
     /// Stores `job`'s image as `events`, each encoded by `encode` into the
-    /// buffer it is given; on disk and synced when this returns `Ok`.
+    /// buffer it is given; on disk and synced when this returns `Ok`, and
+    /// no file left when it returns an error (the caller keeps the image
+    /// another way, and a file cut short would hide it).
     pub fn store<E>(
         &mut self,
         job: u64,
@@ -77,23 +79,30 @@ impl Images {
             Images::Files(dir) => dir,
         };
         let path = Self::path(dir, job);
-        let mut w = BufWriter::with_capacity(1 << 20, File::create(&path)?);
-        w.write_all(MAGIC)?;
-        let mut buf = Vec::new();
-        for (seq, e) in events.iter().enumerate() {
-            buf.clear();
-            encode(e, &mut buf);
-            records::write(&mut w, seq as u32, &buf)?;
+        let written = (|| {
+            let mut w = BufWriter::with_capacity(1 << 20, File::create(&path)?);
+            w.write_all(MAGIC)?;
+            let mut buf = Vec::new();
+            for (seq, e) in events.iter().enumerate() {
+                buf.clear();
+                encode(e, &mut buf);
+                records::write(&mut w, seq as u32, &buf)?;
+            }
+            let f = w.into_inner().map_err(|e| e.into_error())?;
+            f.sync_data()?;
+            // The file's name must outlive a power cut as well as its bytes.
+            File::open(&*dir)?.sync_all()
+        })();
+        if written.is_err() {
+            let _ = std::fs::remove_file(&path);
         }
-        let f = w.into_inner().map_err(|e| e.into_error())?;
-        f.sync_data()?;
-        // The file's name must outlive a power cut as well as its bytes.
-        File::open(dir)?.sync_all()
+        written
     }
 
-    /// `job`'s image events, or `None` when no image of it is kept here
-    /// (the caller then looks for rows). A file cut short or corrupt is
-    /// an image lost: an empty list, and an error logged.
+    /// `job`'s image events, or `None` when no image of it is kept here or
+    /// its file cannot be read (the caller then looks for rows). A file
+    /// cut short or corrupt is an image lost: an empty list, and an error
+    /// logged.
     pub fn read(&self, job: u64) -> Option<Vec<Vec<u8>>> {
         let dir = match self {
             Images::Memory(m) => return m.get(&job).cloned(),
@@ -117,7 +126,7 @@ impl Images {
             }
             Err(e) => {
                 error!(job, path = %path.display(), error = %e, "cannot read a stored image");
-                Some(Vec::new())
+                None
             }
         }
     }

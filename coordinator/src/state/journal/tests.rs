@@ -279,6 +279,18 @@ async fn a_finished_image_is_read_back_as_the_events_a_watcher_is_sent() {
     assert!(read(&j, 5).await.unwrap().is_empty(), "a purged job's image is forgotten");
     assert!(read(&j, 6).await.unwrap().is_empty(), "and so are its rows");
     assert!(!file.exists(), "a purged job's image file is deleted");
+    // Where no file can be written, the image goes in the database.
+    let images = dir.join("state.images");
+    std::fs::remove_dir_all(&images).unwrap();
+    std::fs::write(&images, b"not a folder").unwrap();
+    j.send(Command::Submitted {
+        id: 8,
+        detach: false,
+        blobs: vec![],
+        spec: Box::new(spec(vec![[1u8; 32]])),
+    });
+    j.send(Command::Ended { job: 8, ending: Ending::Done, image: Some(finished.clone()) });
+    assert_eq!(read(&j, 8).await.unwrap(), want, "from rows, no file written");
     std::fs::remove_dir_all(&dir).ok();
 }
 
