@@ -90,8 +90,11 @@ impl Images {
             }
             let f = w.into_inner().map_err(|e| e.into_error())?;
             f.sync_data()?;
-            // The file's name must outlive a power cut as well as its bytes.
-            File::open(&*dir)?.sync_all()
+            // The file's name must outlive a power cut as well as its bytes
+            // (a folder is synced through a handle on Unix only).
+            #[cfg(unix)]
+            File::open(&*dir)?.sync_all()?;
+            Ok(())
         })();
         if written.is_err() {
             let _ = std::fs::remove_file(&path);
