@@ -152,7 +152,6 @@ pub fn suspects(
     spp: u32,
 ) -> Suspects {
     let n = width * height;
-    let value_at = |j: usize| value(&pixel(j), scale).unwrap_or(0.0);
     let (mut fireflies, mut edges) = (Vec::new(), Vec::new());
     let mut around = Vec::with_capacity(8);
     // Pixels are tested [`LANES`] at a time (the last ones again at the
@@ -163,30 +162,44 @@ pub fn suspects(
         (0..LANES).filter(move |&k| far[k] && first + k < n).map(move |k| first + k)
     });
     for i in far {
-        let p = pixel(i);
-        let Some((full, _, _)) = levels(&p, f64::from(scale)) else { continue };
-        let smaller =
-            f64::from(p.second_weight.min(p.weight - p.second_weight)) / f64::from(p.weight);
-        let apart = apart(f64::from(spp) * smaller);
-        let (x, y) = (i % width, i / width);
-        around.clear();
-        for ny in y.saturating_sub(1)..(y + 2).min(height) {
-            for nx in x.saturating_sub(1)..(x + 2).min(width) {
-                if (nx, ny) != (x, y) {
-                    around.push(value_at(ny * width + nx));
-                }
-            }
-        }
-        around.sort_by(f64::total_cmp);
-        let median = around.get(around.len() / 2).copied().unwrap_or(0.0);
-        let second = around.len().checked_sub(2).map_or(0.0, |j| around[j]);
-        if full > apart * (median + 0.01) && full > second {
-            fireflies.push(i);
-        } else {
-            edges.push(i);
+        match stands_out(i, (width, height), &pixel, scale, spp, &mut around) {
+            Some(true) => fireflies.push(i),
+            Some(false) => edges.push(i),
+            None => {}
         }
     }
     Suspects { fireflies, edges }
+}
+
+/// Whether suspect `i`, whose halves lie far apart, stands out of its 3 × 3
+/// neighbourhood as a firefly does (`Some(true)`) or not, as an edge pixel
+/// (`Some(false)`); `None` where a half has no samples. `around` is room
+/// for its neighbours' values.
+pub(super) fn stands_out(
+    i: usize,
+    (width, height): (usize, usize),
+    pixel: impl Fn(usize) -> Pixel,
+    scale: f32,
+    spp: u32,
+    around: &mut Vec<f64>,
+) -> Option<bool> {
+    let p = pixel(i);
+    let (full, _, _) = levels(&p, f64::from(scale))?;
+    let smaller = f64::from(p.second_weight.min(p.weight - p.second_weight)) / f64::from(p.weight);
+    let apart = apart(f64::from(spp) * smaller);
+    let (x, y) = (i % width, i / width);
+    around.clear();
+    for ny in y.saturating_sub(1)..(y + 2).min(height) {
+        for nx in x.saturating_sub(1)..(x + 2).min(width) {
+            if (nx, ny) != (x, y) {
+                around.push(value(&pixel(ny * width + nx), scale).unwrap_or(0.0));
+            }
+        }
+    }
+    around.sort_by(f64::total_cmp);
+    let median = around.get(around.len() / 2).copied().unwrap_or(0.0);
+    let second = around.len().checked_sub(2).map_or(0.0, |j| around[j]);
+    Some(full > apart * (median + 0.01) && full > second)
 }
 
 /// What the [`Suspects`] of a `width` × `height` film whose pixels

@@ -197,11 +197,10 @@ fn suspects_one_by_one(
     scale: f32,
     spp: u32,
 ) -> Suspects {
-    let value_at = |j: usize| fireflies::levels(&pixel(j), f64::from(scale)).map_or(0.0, |l| l.0);
-    let (mut fireflies, mut edges) = (Vec::new(), Vec::new());
+    let (mut fireflies, mut edges, mut around) = (Vec::new(), Vec::new(), Vec::new());
     for i in 0..width * height {
         let p = pixel(i);
-        let Some((full, dark, bright)) = fireflies::levels(&p, f64::from(scale)) else {
+        let Some((_, dark, bright)) = fireflies::levels(&p, f64::from(scale)) else {
             continue;
         };
         let smaller =
@@ -210,22 +209,10 @@ fn suspects_one_by_one(
         if bright <= apart * (dark + 0.01) {
             continue;
         }
-        let (x, y) = (i % width, i / width);
-        let mut around = Vec::new();
-        for ny in y.saturating_sub(1)..(y + 2).min(height) {
-            for nx in x.saturating_sub(1)..(x + 2).min(width) {
-                if (nx, ny) != (x, y) {
-                    around.push(value_at(ny * width + nx));
-                }
-            }
-        }
-        around.sort_by(f64::total_cmp);
-        let median = around.get(around.len() / 2).copied().unwrap_or(0.0);
-        let second = around.len().checked_sub(2).map_or(0.0, |j| around[j]);
-        if full > apart * (median + 0.01) && full > second {
-            fireflies.push(i);
-        } else {
-            edges.push(i);
+        match fireflies::stands_out(i, (width, height), &pixel, scale, spp, &mut around) {
+            Some(true) => fireflies.push(i),
+            Some(false) => edges.push(i),
+            None => {}
         }
     }
     Suspects { fireflies, edges }
