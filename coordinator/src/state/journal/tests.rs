@@ -1,12 +1,18 @@
 //! Tests of the journal: what it writes, what it reads back, what a purge
 //! forgets.
 
+use super::writer::GATHER;
 use super::*;
+use crate::scheduler::JobUpdate;
 use crate::scheduler::{Owner, ShotFrame};
+use crate::server::events::job_events;
 use farm_common::film::FilmGeometry;
 use farm_common::film::PassPlan;
 use farm_common::geometry::{Bounds2i, Point2i, Vec2};
 use farm_common::ids::JobId;
+use prost::Message;
+use rusqlite::params;
+use std::time::Duration;
 
 fn spec(blobs: Vec<Hash>) -> JobSpec {
     let b = Bounds2i::new(Point2i::new(0, 0), Point2i::new(8, 8));
