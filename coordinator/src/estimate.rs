@@ -176,9 +176,17 @@ pub fn levelled_errors(
         while x < width {
             let row_at = y * width + x;
             if x + LANES <= width {
-                let sums: [Option<[f64; 4]>; LANES] = std::array::from_fn(|k| around(x + k));
+                // Filled in loops: through `array::from_fn` the closures
+                // were called out of line in the coordinator's build.
+                let mut sums = [None; LANES];
+                for (k, s) in sums.iter_mut().enumerate() {
+                    *s = around(x + k);
+                }
                 if sums.iter().all(Option::is_some) {
-                    let pixels = std::array::from_fn(|k| pixel(row_at + k));
+                    let mut pixels = [Pixel::default(); LANES];
+                    for (k, p) in pixels.iter_mut().enumerate() {
+                        *p = pixel(row_at + k);
+                    }
                     let value = std::array::from_fn(|k| values[x + k]);
                     let sums = sums.map(|s| s.unwrap_or_default());
                     let e = levelled_lanes(&pixels, scale, halves, &value, &sums);

@@ -156,17 +156,25 @@ pub fn suspects(
     let mut around = Vec::with_capacity(8);
     // Pixels are tested [`LANES`] at a time (the last ones again at the
     // film's end), and only the few that are far apart looked at further.
-    let far = (0..n).step_by(LANES).flat_map(|first| {
-        let pixels = std::array::from_fn(|k| pixel((first + k).min(n - 1)));
-        let far = far_apart(&pixels, f64::from(scale), f64::from(spp));
-        (0..LANES).filter(move |&k| far[k] && first + k < n).map(move |k| first + k)
-    });
-    for i in far {
-        match stands_out(i, (width, height), &pixel, scale, spp, &mut around) {
-            Some(true) => fireflies.push(i),
-            Some(false) => edges.push(i),
-            None => {}
+    let mut first = 0;
+    while first < n {
+        let mut pixels = [Pixel::default(); LANES];
+        for (k, p) in pixels.iter_mut().enumerate() {
+            *p = pixel((first + k).min(n - 1));
         }
+        let far = far_apart(&pixels, f64::from(scale), f64::from(spp));
+        for (k, &far) in far.iter().enumerate() {
+            let i = first + k;
+            if !far || i >= n {
+                continue;
+            }
+            match stands_out(i, (width, height), &pixel, scale, spp, &mut around) {
+                Some(true) => fireflies.push(i),
+                Some(false) => edges.push(i),
+                None => {}
+            }
+        }
+        first += LANES;
     }
     Suspects { fireflies, edges }
 }
