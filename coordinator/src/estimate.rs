@@ -110,8 +110,8 @@ fn sampled_value(p: &Pixel, scale: f32) -> Option<[f64; 3]> {
 /// Neighbouring pixels are worked out [`LANES`] at a time, each
 /// operation across them at once ([`levelled_lanes`]): the same
 /// operations in the same order on each pixel as one at a time, so the
-/// same bits, with the divisions (about twenty a pixel) paired into the
-/// vector unit's.
+/// same bits, with the divisions (fourteen to sixteen a pixel) paired
+/// into the vector unit's.
 pub fn levelled_errors(
     (width, height): (usize, usize),
     pixel: impl Fn(usize) -> Pixel,
@@ -140,6 +140,7 @@ pub fn levelled_errors(
     };
     // Its pages mapped in one call, then written in order.
     let mut errors = crate::pages::mapped(0.0, width * height);
+    debug_assert!(own.windows(2).all(|w| w[0] <= w[1]), "fireflies in ascending order");
     let mut own = own.iter().copied().peekable();
     let (mut above, mut here) = (None, (height > 0).then(|| row(0)));
     for y in 0..height {

@@ -110,7 +110,8 @@ struct Capacity {
     /// while the job ran ([`probe_loop`]), in seconds.
     stall: f64,
     /// Seconds the coordinator's event loop was busy from the submit call
-    /// to the image (`farm_event_loop_busy_seconds_total`): the part of its
+    /// until it went quiet after the image
+    /// (`farm_event_loop_busy_seconds_total`): the part of its
     /// CPU that is done one event at a time, which no second core helps.
     loop_busy: f64,
 }
@@ -143,19 +144,22 @@ async fn probe_loop(url: String, stop: Arc<std::sync::atomic::AtomicBool>) -> f6
 }
 
 /// The coordinator's CPU seconds once it has gone quiet: read every 50 ms
-/// until two readings agree (its /proc counters tick every 10 ms), at
-/// most 10 s.
+/// until three readings agree (its /proc counters tick every 10 ms, so
+/// 100 ms without a tick), at most 10 s; NaN if it never does. (A thread
+/// waiting on the disk takes no CPU, so what it does after such a wait
+/// can be missed: the commit after an image's sync, a few hundred µs.)
 async fn quiet(cpu: impl Fn() -> Result<f64, String>) -> Result<f64, String> {
-    let mut last = cpu()?;
+    let (mut last, mut same) = (cpu()?, 0);
     for _ in 0..200 {
         tokio::time::sleep(Duration::from_millis(50)).await;
         let now = cpu()?;
-        if now == last {
+        same = if now == last { same + 1 } else { 0 };
+        if same == 2 {
             return Ok(now);
         }
         last = now;
     }
-    Err("the coordinator did not go quiet within 10 s of the image".into())
+    Ok(f64::NAN)
 }
 
 /// The progress events a run reads the coordinator's CPU at: the first
@@ -233,10 +237,11 @@ async fn capacity_run(
         Err(_) => return Err("timed out after 300 s".into()),
     }
     let (wall_image, cpu_image) = (t.elapsed().as_secs_f64(), cpu()? - cpu0);
-    let loop_busy = loop_busy(&url).await? - busy0;
     stop.store(true, std::sync::atomic::Ordering::Relaxed);
     let stall = probe.await.unwrap_or(f64::NAN);
+    // Quiet before the metrics are scraped, whose answer would count.
     let cpu_after = quiet(cpu).await? - cpu0 - cpu_image;
+    let loop_busy = loop_busy(&url).await? - busy0;
     drop(procs);
     let cpu_steady = marks.per_tile().ok_or("no progress events at 10% and 90%")?;
     Ok(Capacity { register, cpu_steady, wall_image, cpu_image, cpu_after, stall, loop_busy })
@@ -326,12 +331,13 @@ pub(super) fn capacity_table(rt: &Runtime) {
          (dispatch, merge, journal: what grows with tiles), and its inverse. To image = from \
          the submit call to the finished {}×{} image received by the client: tiles/s over wall \
          seconds, the coordinator's CPU a tile and its inverse, and its event loop's busy time a tile \
+         until it went quiet \
          (farm_event_loop_busy_seconds_total: the part done one event at a time, which \
          more cores do not share; the stall probe's events included). Job = the coordinator's CPU \
          to image less 10-90%'s cost for every tile: the job's own start and end (its film, \
          estimate and image), which grow with pixels. After = the coordinator's CPU from the \
-         image received to the process going quiet (no CPU for 50 ms): what it still does for \
-         the job, such as its journal storing the image. Stall = the longest the coordinator's \
+         image received to the process going quiet (no CPU tick for 100 ms): what it still does \
+         for the job, such as its journal storing the image, and the last stall probes. Stall = the longest the coordinator's \
          event loop took to answer a probe sent every 2 ms while the job ran (two events: a \
          cancel of a job that does not exist). The client's and the fake workers' CPU \
          is left out. The fake workers share {FAKE_CONNECTIONS} connections and ask for \

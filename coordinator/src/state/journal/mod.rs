@@ -4,8 +4,9 @@
 //! The event loop never waits for the disk: it sends [`Command`]s down a
 //! channel, and the writer commits whatever has queued up in one
 //! transaction (WAL, `synchronous = NORMAL`: a commit survives the process
-//! being killed; only the OS losing power can lose the last few). Tiles
-//! and hand-outs are committed at most every [`GATHER`], so under load a
+//! being killed; only the OS losing power can lose the last few). A batch
+//! that starts with a merged tile or a hand-out waits until
+//! [`writer::GATHER`] has passed since the last commit, so under load a
 //! transaction holds a run of them rather than one or two. Reads
 //! that must see earlier writes (a finished job's image) go down the same
 //! channel, so they are answered in order. Accepted tiles are the bulk of

@@ -13,9 +13,19 @@ use std::io::{Read, Write};
 /// a few MB): a longer length is a corrupt one, not allocated.
 pub(super) const MAX_RECORD: u32 = 64 << 20;
 
-/// Writes one record: `key` and `data`, framed.
+/// Writes one record: `key` and `data`, framed; refuses `data` longer
+/// than a record may be (it could not be read back).
 pub(super) fn write(w: &mut impl Write, key: u32, data: &[u8]) -> std::io::Result<()> {
-    let len = 4 + data.len() as u32;
+    let len = u32::try_from(data.len())
+        .ok()
+        .and_then(|n| n.checked_add(4))
+        .filter(|&len| len <= MAX_RECORD)
+        .ok_or_else(|| {
+            std::io::Error::new(
+                std::io::ErrorKind::InvalidInput,
+                "a record too long to be read back",
+            )
+        })?;
     let mut crc = crc32fast::Hasher::new();
     crc.update(&key.to_le_bytes());
     crc.update(data);
@@ -55,13 +65,16 @@ pub(super) fn read(r: &mut impl Read, magic: &[u8; 8], size: u64) -> std::io::Re
         if got < 8 || !(4..=MAX_RECORD).contains(&len) || end + 8 + u64::from(len) > size {
             return Ok(Found::Records { records, end, complete: false });
         }
-        let mut payload = vec![0u8; len as usize];
-        if read_full(r, &mut payload)? < payload.len() || crc32fast::hash(&payload) != crc {
+        let mut key = [0u8; 4];
+        let mut payload = vec![0u8; len as usize - 4];
+        let whole = read_full(r, &mut key)? == 4 && read_full(r, &mut payload)? == payload.len();
+        let mut check = crc32fast::Hasher::new();
+        check.update(&key);
+        check.update(&payload);
+        if !whole || check.finalize() != crc {
             return Ok(Found::Records { records, end, complete: false });
         }
-        let key = u32::from_le_bytes([payload[0], payload[1], payload[2], payload[3]]);
-        payload.drain(..4);
-        records.push((key, payload));
+        records.push((u32::from_le_bytes(key), payload));
         end += 8 + u64::from(len);
     }
 }
@@ -123,6 +136,17 @@ mod tests {
         assert_eq!(read_all(&flipped), Found::Records { records: vec![], end: 8, complete: false });
         assert_eq!(read_all(b"FARMTES"), Found::NotOurs);
         assert_eq!(read_all(b"NOTFARM!rest"), Found::NotOurs);
+    }
+
+    #[test]
+    fn a_record_too_long_to_read_back_is_not_written() {
+        let mut bytes = Vec::new();
+        let long = vec![0u8; MAX_RECORD as usize - 3];
+        let e = write(&mut bytes, 1, &long).unwrap_err();
+        assert_eq!(e.kind(), std::io::ErrorKind::InvalidInput);
+        assert!(bytes.is_empty(), "nothing written");
+        write(&mut bytes, 1, &long[1..]).unwrap();
+        assert_eq!(bytes.len(), 12 + long.len() - 1);
     }
 
     #[test]

@@ -327,7 +327,6 @@ async fn tiles_coming_in_fast_are_committed_together() {
     let (commits, took) = (j.commits() - before, start.elapsed());
     let most = (took.as_micros() / GATHER.as_micros()) as usize + 3;
     assert!(commits <= most, "{commits} commits in {took:?}: at most {most}");
-    assert!(commits >= 2, "{commits} commits");
     std::fs::remove_dir_all(&dir).ok();
 }
 

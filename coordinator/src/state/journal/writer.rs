@@ -78,19 +78,21 @@ pub(super) fn writer(
         match result {
             Ok(()) => {
                 commits.fetch_add(1, Ordering::Relaxed);
+                // An ended job's tiles go once its ending is committed: a
+                // crash in between leaves a log that the next start
+                // deletes. So do a purged job's tiles and image. A batch
+                // that did not commit leaves them all: the database still
+                // has those jobs as they were.
+                for job in after.ended {
+                    files.logs.remove(job);
+                }
+                for job in after.purged {
+                    files.images.remove(job);
+                }
             }
             Err(e) => {
                 error!(error = %e, changes = n, "the journal could not commit: these changes are not durable")
             }
-        }
-        // An ended job's tiles go once its ending is committed: a crash in
-        // between leaves a log that the next start deletes. So do a purged
-        // job's tiles and image.
-        for job in after.ended {
-            files.logs.remove(job);
-        }
-        for job in after.purged {
-            files.images.remove(job);
         }
         // Answers go out after the commit, so a flush means "on disk".
         for r in after.replies {
@@ -225,6 +227,11 @@ fn apply(
             .execute(params![hash.as_slice(), size as i64, owner, unix_now()])?;
         }
         Command::ReadImage { job, reply } => {
+            // Purged earlier in this batch: its file goes after the commit.
+            if after.purged.contains(&job) {
+                let _ = reply.send(Vec::new());
+                return Ok(());
+            }
             if let Some(events) = images.read(job) {
                 let _ = reply.send(events);
                 return Ok(());
