@@ -2,7 +2,7 @@
 //! `Shape "cone" "float radius" 1 "float height" 1 "float phimax" 360`.
 
 use super::efloat::{
-    phi_of, quadric_hit, ray_point_error, weingarten, Arith, Coefficients, EFloat, Placement,
+    phi_of, quadric_hit, ray_point_error, weingarten, Arith, Coefficients, ObjectHit, Placement,
 };
 use crate::interaction::SurfaceInteraction;
 use farm_common::geometry::{Bounds3f, Ray, Vec2, Vec3};
@@ -44,13 +44,8 @@ impl Cone {
 
     /// The hit in object space, with rays rejected on values first
     /// ([`quadric_hit`]) or not (the tests' reference).
-    #[allow(clippy::type_complexity)]
     #[inline(always)]
-    pub(super) fn hit(
-        &self,
-        r: &Ray,
-        values_first: bool,
-    ) -> Option<(Ray, [EFloat; 3], [EFloat; 3], EFloat, (Vec3, f32))> {
+    pub(super) fn hit(&self, r: &Ray, values_first: bool) -> Option<ObjectHit<(Vec3, f32)>> {
         let (ray, oe, de) = self.placement.object_ray(r);
         let eval = |t: f32| {
             let p = ray.at(t);

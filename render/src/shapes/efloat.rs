@@ -208,12 +208,19 @@ pub(crate) trait Coefficients {
     fn coefficients<T: Arith>(&self, o: [T; 3], d: [T; 3]) -> (T, T, T);
 }
 
+/// A quadric's hit with bounds: the object-space origin and direction,
+/// the hit's `t`, and what the shape's clip test made of it.
+pub(crate) type BoundedHit<H> = ([EFloat; 3], [EFloat; 3], EFloat, H);
+
+/// A [`BoundedHit`] with the object-space ray it was found on, as the
+/// shapes' `hit` returns it.
+pub(crate) type ObjectHit<H> = (Ray, [EFloat; 3], [EFloat; 3], EFloat, H);
+
 /// pbrt-v3's quadric test of `ray` (object space, its origin's and
 /// direction's errors `oe` and `de`): rejected on values first when
 /// `values_first` ([`misses`]; the tests compare both ways), then
 /// [`quadratic`] and [`nearest_hit`] with bounds. Returns the origin and
 /// direction with bounds, the hit's `t` and what `eval` made of it.
-#[allow(clippy::type_complexity)]
 #[inline(always)]
 pub(crate) fn quadric_hit<H>(
     q: &impl Coefficients,
@@ -221,7 +228,7 @@ pub(crate) fn quadric_hit<H>(
     (oe, de): (Vec3, Vec3),
     values_first: bool,
     eval: impl Fn(f32) -> Option<H>,
-) -> Option<([EFloat; 3], [EFloat; 3], EFloat, H)> {
+) -> Option<BoundedHit<H>> {
     if values_first {
         let (a, b, c) = q.coefficients(ray.o.to_array(), ray.d.to_array());
         if misses(a, b, c, &eval) {
