@@ -94,7 +94,46 @@ pub(crate) fn sum_counted(errors: &[f64]) -> (f64, usize) {
 /// `None` when a half has no samples there.
 fn sampled_value(p: &Pixel, scale: f32) -> Option<[f64; 3]> {
     let (w, _, _) = half_weights(p)?;
-    Some(p.contrib.map(|c| (f64::from(c) / w).max(0.0) * f64::from(scale)))
+    let per = 1.0 / w;
+    Some(p.contrib.map(|c| (f64::from(c) * per).max(0.0) * f64::from(scale)))
+}
+
+/// `1 / n` for the number of pixels a 3 × 3 neighbourhood holds (1 to 9),
+/// so that a level is a product rather than a division.
+const PER_COUNT: [f64; 10] = {
+    let mut per = [0.0; 10];
+    let mut n = 1;
+    while n < per.len() {
+        per[n] = 1.0 / n as f64;
+        n += 1;
+    }
+    per
+};
+
+/// The level of channel `c` of a pixel of `value` whose neighbourhood's
+/// sums (values, then the count of pixels summed) are `sum`: the smaller
+/// of its value and their mean.
+#[inline(always)]
+pub(crate) fn level(value: &[f64; 4], sum: &[f64; 4], c: usize) -> f64 {
+    value[c].min(sum[c] * PER_COUNT[sum[3] as usize])
+}
+
+/// What a pixel's per-channel squared error terms are multiplied by to
+/// give its relMSE: the weight `times` that turns E[(A − B)²] into
+/// g · R, over 3 (the channels' mean) and g (see the module
+/// documentation); worked out once a pixel, with two divisions at most.
+#[inline(always)]
+fn factor(w: f64, w_a: f64, w_b: f64, halves: HalfImages) -> f64 {
+    match halves {
+        HalfImages::Independent => w_a * w_b / (3.0 * (w * w)),
+        HalfImages::Sequence => {
+            // 1 + a/b + b/a over one denominator.
+            let ab = w_a * w_b;
+            let g = ((w_a * w_a + w_b * w_b + ab) / ab).abs().sqrt();
+            ab / (3.0 * (w * w) * g)
+        }
+        HalfImages::Spread => 0.25 / (3.0 * 5f64.sqrt()),
+    }
 }
 
 /// Each pixel's estimated relMSE over a `width` × `height` film whose
@@ -110,8 +149,8 @@ fn sampled_value(p: &Pixel, scale: f32) -> Option<[f64; 3]> {
 /// Neighbouring pixels are worked out [`LANES`] at a time, each
 /// operation across them at once ([`levelled_lanes`]): the same
 /// operations in the same order on each pixel as one at a time, so the
-/// same bits, with the divisions (fourteen to sixteen a pixel) paired
-/// into the vector unit's.
+/// same bits, with the divisions (six or seven a pixel, and one for its
+/// value) paired into the vector unit's.
 pub fn levelled_errors(
     (width, height): (usize, usize),
     pixel: impl Fn(usize) -> Pixel,
@@ -165,7 +204,7 @@ pub fn levelled_errors(
             let p = pixel(y * width + x);
             let e = match around {
                 Some(sum) => {
-                    let level = std::array::from_fn(|c| values[x][c].min(sum[c] / sum[3]));
+                    let level = std::array::from_fn(|c| level(&values[x], &sum, c));
                     pixel_error_against(&p, scale, halves, Against::Level(level))
                 }
                 None if values[x][3] == 0.0 => None,
@@ -232,19 +271,14 @@ fn levelled_lanes(
     sum: &[[f64; 4]; LANES],
 ) -> [f64; LANES] {
     type L = [f64; LANES];
-    let level: [L; 3] = std::array::from_fn(|c| each(|k| value[k][c].min(sum[k][c] / sum[k][3])));
+    let level: [L; 3] = std::array::from_fn(|c| each(|k| level(&value[k], &sum[k], c)));
     let scale = f64::from(scale);
     let w: L = each(|k| f64::from(p[k].weight));
     let w_b: L = each(|k| f64::from(p[k].second_weight));
     let w_a: L = each(|k| w[k] - w_b[k]);
-    let (times, g): (L, L) = match halves {
-        HalfImages::Independent => (each(|k| w_a[k] * w_b[k] / (w[k] * w[k])), [1.0; LANES]),
-        HalfImages::Sequence => (
-            each(|k| w_a[k] * w_b[k] / (w[k] * w[k])),
-            each(|k| (1.0 + w_a[k] / w_b[k] + w_b[k] / w_a[k]).abs().sqrt()),
-        ),
-        HalfImages::Spread => ([0.25; LANES], [5f64.sqrt(); LANES]),
-    };
+    let to_a: L = each(|k| scale / w_a[k]);
+    let to_b: L = each(|k| scale / w_b[k]);
+    let factor: L = each(|k| factor(w[k], w_a[k], w_b[k], halves));
     let mut e: L = [0.0; LANES];
     // Indexed rather than iterated: `level.iter()` here kept the loop from
     // being unrolled into vector divisions (104 → 158 ms for a 2048² film).
@@ -253,13 +287,13 @@ fn levelled_lanes(
         let level = level[c];
         let all: L = each(|k| f64::from(p[k].contrib[c]));
         let second: L = each(|k| f64::from(p[k].second_contrib[c]));
-        let a: L = each(|k| (all[k] - second[k]) / w_a[k] * scale);
-        let b: L = each(|k| second[k] / w_b[k] * scale);
+        let a: L = each(|k| (all[k] - second[k]) * to_a[k]);
+        let b: L = each(|k| second[k] * to_b[k]);
         let d: L = each(|k| a[k] - b[k]);
-        let term: L = each(|k| d[k] * d[k] * times[k] / (level[k] * level[k] + EPSILON));
+        let term: L = each(|k| d[k] * d[k] / (level[k] * level[k] + EPSILON));
         e = each(|k| e[k] + term[k]);
     }
-    each(|k| e[k] / (3.0 * g[k]))
+    each(|k| e[k] * factor[k])
 }
 
 /// What a pixel's squared error is relative to.
@@ -285,29 +319,26 @@ pub fn pixel_error_against(
 ) -> Option<f64> {
     let scale = f64::from(scale);
     let (w, w_a, w_b) = half_weights(p)?;
-    // E[(A − B)²] times this is g · R (see the module documentation).
-    let (times, g) = match halves {
-        HalfImages::Independent => (w_a * w_b / (w * w), 1.0),
-        HalfImages::Sequence => (w_a * w_b / (w * w), (1.0 + w_a / w_b + w_b / w_a).abs().sqrt()),
-        HalfImages::Spread => (0.25, 5f64.sqrt()),
-    };
+    // E[(A − B)²] times `factor` is R, averaged over the channels (see the
+    // module documentation).
+    let (to_a, to_b) = (scale / w_a, scale / w_b);
     let mut e = 0.0;
     for c in 0..3 {
         let all = f64::from(p.contrib[c]);
         let second = f64::from(p.second_contrib[c]);
-        // The image clamps negative values (from negative filter lobes) to 0.
-        let full = (all / w).max(0.0) * scale;
-        let a = (all - second) / w_a * scale;
-        let b = second / w_b * scale;
+        let a = (all - second) * to_a;
+        let b = second * to_b;
         let d = a - b;
         let level = match against {
-            Against::Value => full,
+            // The image clamps negative values (from negative filter
+            // lobes) to 0.
+            Against::Value => (all / w).max(0.0) * scale,
             Against::DarkerHalf => a.min(b).max(0.0),
             Against::Level(l) => l[c],
         };
-        e += d * d * times / (level * level + EPSILON);
+        e += d * d / (level * level + EPSILON);
     }
-    Some(e / (3.0 * g))
+    Some(e * factor(w, w_a, w_b, halves))
 }
 
 /// An estimate of a render's relMSE from its two half-images.

@@ -82,13 +82,19 @@ pub struct Fireflies {
 /// A pixel's value (the mean of its channels) and its halves'.
 pub(super) fn levels(p: &Pixel, scale: f64) -> Option<(f64, f64, f64)> {
     let (w, w_a, w_b) = half_weights(p)?;
-    let mean = |v: [f32; 3]| v.iter().map(|&x| f64::from(x)).sum::<f64>() / 3.0;
-    let all = mean(p.contrib);
-    let second = mean(p.second_contrib);
-    let full = (all / w).max(0.0) * scale;
-    let a = ((all - second) / w_a).max(0.0) * scale;
-    let b = (second / w_b).max(0.0) * scale;
+    let all = channels(p.contrib);
+    let second = channels(p.second_contrib);
+    let full = (all * (1.0 / (3.0 * w))).max(0.0) * scale;
+    let a = ((all - second) * (1.0 / (3.0 * w_a))).max(0.0) * scale;
+    let b = (second * (1.0 / (3.0 * w_b))).max(0.0) * scale;
     Some((full, a.min(b), a.max(b)))
+}
+
+/// The sum of a pixel's three channels, whose mean is its value: the
+/// division by 3 is folded into the one by its weight.
+#[inline(always)]
+fn channels(v: [f32; 3]) -> f64 {
+    v.iter().map(|&x| f64::from(x)).sum::<f64>()
 }
 
 /// A pixel's value (the mean of its channels), or `None` where a half has
@@ -124,14 +130,13 @@ pub struct Suspects {
 /// [`levels`] and that test do them.
 #[inline(always)]
 fn far_apart(p: &[Pixel; LANES], scale: f64, spp: f64) -> [bool; LANES] {
-    let mean = |v: [f32; 3]| v.iter().map(|&x| f64::from(x)).sum::<f64>() / 3.0;
     let w = each(|k| f64::from(p[k].weight));
     let w_b = each(|k| f64::from(p[k].second_weight));
     let w_a = each(|k| w[k] - w_b[k]);
-    let all = each(|k| mean(p[k].contrib));
-    let second = each(|k| mean(p[k].second_contrib));
-    let a = each(|k| ((all[k] - second[k]) / w_a[k]).max(0.0) * scale);
-    let b = each(|k| (second[k] / w_b[k]).max(0.0) * scale);
+    let all = each(|k| channels(p[k].contrib));
+    let second = each(|k| channels(p[k].second_contrib));
+    let a = each(|k| ((all[k] - second[k]) * (1.0 / (3.0 * w_a[k]))).max(0.0) * scale);
+    let b = each(|k| (second[k] * (1.0 / (3.0 * w_b[k]))).max(0.0) * scale);
     let smaller =
         each(|k| f64::from(p[k].second_weight.min(p[k].weight - p[k].second_weight)) / w[k]);
     let apart = each(|k| apart(spp * smaller[k]));

@@ -257,7 +257,7 @@ fn levelled_one_by_one(
                 {
                     add(&mut sum, across(x, ny));
                 }
-                let level = std::array::from_fn(|c| v[c].min(sum[c] / sum[3]));
+                let level = std::array::from_fn(|c| super::level(&v, &sum, c));
                 pixel_error_against(&pixel(i), scale, halves, Against::Level(level))
             };
             errors.push(e.unwrap_or(f64::NAN));
