@@ -10,6 +10,10 @@ const FAKE_WORKERS: [usize; 3] = [1, 100, 10_000];
 const FAKE_CONNECTIONS: usize = 64;
 /// Runs of each row of table 2.
 const CAPACITY_RUNS: usize = 3;
+/// Jobs a run submits, one after the other, to the same coordinator and
+/// workers: the first meets a fresh process (new streams' buffers, a new
+/// tile log), the next one a coordinator that has been running.
+const JOBS: usize = 2;
 
 /// The capacity job: a big film of trivial content. 2048² is the largest
 /// square whose finished image (12 bytes a pixel) fits in one 64 MiB gRPC
@@ -188,13 +192,14 @@ impl Marks {
     }
 }
 
-/// A fresh coordinator process with `workers` fake workers, one job.
+/// A fresh coordinator process with `workers` fake workers, [`JOBS`]
+/// jobs one after the other, each measured.
 async fn capacity_run(
     bin: &Path,
     workers: usize,
     scene: &Path,
     tiles: &Arc<Tiles>,
-) -> Result<Capacity, String> {
+) -> Result<Vec<Capacity>, String> {
     // Heartbeats are not what is measured: fake workers send none, and
     // must not be dropped as silent while they wait for tiles.
     let (procs, url) = start_coordinator(bin, &["--heartbeat", "60"]).await;
@@ -220,16 +225,31 @@ async fn capacity_run(
     let register = registering.elapsed().as_secs_f64();
 
     let pid = procs.0[0].id().to_string();
-    let cpu = || cpu_seconds(&pid).ok_or("no /proc reading of the coordinator".to_string());
-    let busy0 = loop_busy(&url).await?;
+    let mut jobs = Vec::new();
+    for _ in 0..JOBS {
+        jobs.push(capacity_job(&url, &pid, scene, register).await?);
+    }
+    drop(procs);
+    Ok(jobs)
+}
+
+/// One job on the coordinator at `url` (process `pid`), measured.
+async fn capacity_job(
+    url: &str,
+    pid: &str,
+    scene: &Path,
+    register: f64,
+) -> Result<Capacity, String> {
+    let cpu = || cpu_seconds(pid).ok_or("no /proc reading of the coordinator".to_string());
+    let busy0 = loop_busy(url).await?;
     let (t, cpu0) = (Instant::now(), cpu()?);
     let mut marks = Marks::default();
     let opts = RemoteOptions::default();
-    let remote = farm_cli::client::Remote::insecure(&url);
+    let remote = farm_cli::client::Remote::insecure(url);
     let stop = Arc::new(std::sync::atomic::AtomicBool::new(false));
-    let probe = tokio::spawn(probe_loop(url.clone(), stop.clone()));
+    let probe = tokio::spawn(probe_loop(url.to_string(), stop.clone()));
     let job = client::submit(&remote, scene, &opts, |_, p| {
-        marks.progress(p.tiles_done, p.tiles_total, || cpu_seconds(&pid));
+        marks.progress(p.tiles_done, p.tiles_total, || cpu_seconds(pid));
     });
     match tokio::time::timeout(Duration::from_secs(300), job).await {
         Ok(Ok(_)) => {}
@@ -241,8 +261,7 @@ async fn capacity_run(
     let stall = probe.await.unwrap_or(f64::NAN);
     // Quiet before the metrics are scraped, whose answer would count.
     let cpu_after = quiet(cpu).await? - cpu0 - cpu_image;
-    let loop_busy = loop_busy(&url).await? - busy0;
-    drop(procs);
+    let loop_busy = loop_busy(url).await? - busy0;
     let cpu_steady = marks.per_tile().ok_or("no progress events at 10% and 90%")?;
     Ok(Capacity { register, cpu_steady, wall_image, cpu_image, cpu_after, stall, loop_busy })
 }
@@ -268,12 +287,13 @@ pub(super) fn capacity_table(rt: &Runtime) {
         Err(_) => FAKE_WORKERS.to_vec(),
     };
     println!(
-        "{:>7} {:>7} {:>7} | {:>10} {:>12} | {:>10} {:>10} {:>12} {:>10} | {:>8} {:>8} {:>8}",
-        "", "", "", "10-90%", "", "to image", "", "", "loop", "job", "after", "stall"
+        "{:>7} {:>4} {:>7} {:>7} | {:>10} {:>12} | {:>10} {:>10} {:>12} {:>10} | {:>8} {:>8} {:>8}",
+        "", "", "", "", "10-90%", "", "to image", "", "", "loop", "job", "after", "stall"
     );
     println!(
-        "{:>7} {:>7} {:>7} | {:>10} {:>12} | {:>10} {:>10} {:>12} {:>10} | {:>8} {:>8} {:>8}",
+        "{:>7} {:>4} {:>7} {:>7} | {:>10} {:>12} | {:>10} {:>10} {:>12} {:>10} | {:>8} {:>8} {:>8}",
         "workers",
+        "job",
         "tiles",
         "joined",
         "µs/tile",
@@ -287,7 +307,7 @@ pub(super) fn capacity_table(rt: &Runtime) {
         "ms"
     );
     for workers in counts {
-        let mut runs = Vec::new();
+        let mut runs: Vec<Vec<Capacity>> = Vec::new();
         let mut failure = None;
         for _ in 0..CAPACITY_RUNS {
             match rt.block_on(capacity_run(&bin, workers, &scene, &tiles)) {
@@ -299,32 +319,37 @@ pub(super) fn capacity_table(rt: &Runtime) {
             println!("{workers:>7} {n:>7} failed: {e}");
             continue;
         }
-        // Medians over the runs, each column on its own.
-        let median = |f: &dyn Fn(&Capacity) -> f64| {
-            let mut v: Vec<f64> = runs.iter().map(f).collect();
-            min_median(&mut v).1
-        };
-        let per_tile = |s: f64| 1e6 * s / n as f64;
-        let rate = |s: f64| n as f64 / s;
-        let steady = median(&|c| c.cpu_steady);
-        let (wi, ci) = (median(&|c| c.wall_image), median(&|c| c.cpu_image));
-        println!(
-            "{workers:>7} {n:>7} {:>7.2} | {:>10.1} {:>12.0} | {:>10.0} {:>10.1} {:>12.0} {:>10.1} | {:>8.0} {:>8.0} {:>8.1}",
-            median(&|c| c.register),
-            1e6 * steady,
-            1.0 / steady,
-            rate(wi),
-            per_tile(ci),
-            rate(ci),
-            per_tile(median(&|c| c.loop_busy)),
-            1e3 * median(&|c| c.cpu_image - c.cpu_steady * n as f64),
-            1e3 * median(&|c| c.cpu_after),
-            1e3 * median(&|c| c.stall),
-        );
+        for job in 0..JOBS {
+            // Medians over the runs, each column on its own.
+            let median = |f: &dyn Fn(&Capacity) -> f64| {
+                let mut v: Vec<f64> = runs.iter().map(|r| f(&r[job])).collect();
+                min_median(&mut v).1
+            };
+            let per_tile = |s: f64| 1e6 * s / n as f64;
+            let rate = |s: f64| n as f64 / s;
+            let steady = median(&|c| c.cpu_steady);
+            let (wi, ci) = (median(&|c| c.wall_image), median(&|c| c.cpu_image));
+            println!(
+                "{workers:>7} {:>4} {n:>7} {:>7.2} | {:>10.1} {:>12.0} | {:>10.0} {:>10.1} {:>12.0} {:>10.1} | {:>8.0} {:>8.0} {:>8.1}",
+                job + 1,
+                median(&|c| c.register),
+                1e6 * steady,
+                1.0 / steady,
+                rate(wi),
+                per_tile(ci),
+                rate(ci),
+                per_tile(median(&|c| c.loop_busy)),
+                1e3 * median(&|c| c.cpu_image - c.cpu_steady * n as f64),
+                1e3 * median(&|c| c.cpu_after),
+                1e3 * median(&|c| c.stall),
+            );
+        }
     }
     let _ = std::fs::remove_dir_all(&dir);
     println!(
-        "Medians of {CAPACITY_RUNS} runs, each on a fresh coordinator with its journal. Joined = \
+        "Medians of {CAPACITY_RUNS} runs, each on a fresh coordinator with its journal, of the \
+         run's first job and of the next one (job 2: the same coordinator and workers, warm \
+         from the first, as in a farm left running). Joined = \
          wall seconds to register every fake worker and open its Work stream. 10-90% = the \
          coordinator process's own CPU seconds (user + system, /proc, 10 ms ticks) a tile \
          between the progress events that first report 10% and 90% of the tiles merged \
