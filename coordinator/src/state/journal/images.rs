@@ -10,7 +10,8 @@
 //! once and purged with one unlink.
 //!
 //! A file is `FARMIMG1` then one record ([`super::records`]) per event,
-//! its key the event's place. It is written whole and synced, with its
+//! its key the event's place. It is written past the page cache where the
+//! OS allows it ([`super::direct`]), whole and synced, with its
 //! directory, before the commit that ends its job: a job the database
 //! calls done has its image on disk, as when the rows shared its commit.
 //! A file whose job is not (yet) done in the database is a leftover of a
@@ -20,12 +21,13 @@
 //! Jobs that ended before images had files keep their rows, which are
 //! still read.
 
+use super::direct::Direct;
 use super::records::{self, Found};
 use std::collections::HashMap;
 use std::fs::File;
 use std::io::{BufReader, BufWriter, Write};
 use std::path::{Path, PathBuf};
-use tracing::{error, warn};
+use tracing::{debug, error, warn};
 
 const MAGIC: &[u8; 8] = b"FARMIMG1";
 
@@ -86,23 +88,30 @@ impl Images {
             Images::Files(dir) => dir,
         };
         let path = Self::path(dir, job);
-        let written = (|| {
+        // Past the page cache where the OS allows it (`direct.rs`), else
+        // through it; synced either way.
+        let direct = || {
+            let mut w = Direct::create(&path)?;
+            write_events(&mut w, events, &encode)?;
+            w.finish()
+        };
+        let cached = || {
             let mut w = BufWriter::with_capacity(1 << 20, File::create(&path)?);
-            w.write_all(MAGIC)?;
-            let mut buf = Vec::new();
-            for (seq, e) in events.iter().enumerate() {
-                buf.clear();
-                encode(e, &mut buf);
-                records::write(&mut w, seq as u32, &buf)?;
-            }
-            let f = w.into_inner().map_err(|e| e.into_error())?;
-            f.sync_data()?;
-            // The file's name must outlive a power cut as well as its bytes
-            // (a folder is synced through a handle on Unix only).
-            #[cfg(unix)]
-            File::open(&*dir)?.sync_all()?;
-            Ok(())
-        })();
+            write_events(&mut w, events, &encode)?;
+            w.into_inner().map_err(|e| e.into_error())?.sync_data()
+        };
+        let written = direct()
+            .or_else(|e| {
+                debug!(job, error = %e, "the image is written through the page cache");
+                cached()
+            })
+            .and_then(|()| {
+                // The file's name must outlive a power cut as well as its
+                // bytes (a folder is synced through a handle on Unix only).
+                #[cfg(unix)]
+                File::open(&*dir)?.sync_all()?;
+                Ok(())
+            });
         if written.is_err() {
             let _ = std::fs::remove_file(&path);
         }
@@ -173,6 +182,22 @@ impl Images {
             self.remove(job);
         }
     }
+}
+
+/// The file's bytes: the magic, then `events` as records in order.
+fn write_events<E>(
+    w: &mut impl Write,
+    events: &[E],
+    encode: &impl Fn(&E, &mut Vec<u8>),
+) -> std::io::Result<()> {
+    w.write_all(MAGIC)?;
+    let mut buf = Vec::new();
+    for (seq, e) in events.iter().enumerate() {
+        buf.clear();
+        encode(e, &mut buf);
+        records::write(w, seq as u32, &buf)?;
+    }
+    Ok(())
 }
 
 #[cfg(test)]

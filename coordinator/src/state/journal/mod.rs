@@ -15,6 +15,7 @@
 //! finished job's image goes to a file of its own ([`images`]), synced
 //! before the commit that ends the job.
 
+mod direct;
 mod images;
 mod records;
 mod restore;
