@@ -90,7 +90,9 @@ pub(crate) fn sum_counted(errors: &[f64]) -> (f64, usize) {
     errors.iter().filter_map(|&e| counted_error(e)).fold((0.0, 0), |(s, k), e| (s + e, k + 1))
 }
 
-/// A pixel's value per channel, as [`pixel_error_against`] takes it, or
+/// A pixel's value per channel (times `1 / w`, where
+/// [`pixel_error_against`] divides by `w`: the level need not match it
+/// bit for bit), or
 /// `None` when a half has no samples there.
 fn sampled_value(p: &Pixel, scale: f32) -> Option<[f64; 3]> {
     let (w, _, _) = half_weights(p)?;

@@ -219,8 +219,9 @@ fn suspects_one_by_one(
 }
 
 /// [`levelled_errors`] as it was written before it took pixels two at a
-/// time: each pixel's value, its 3 × 3 sums (across, then the rows above
-/// and below) and its error, one pixel after the other.
+/// time (with the arithmetic of now: the level's mean a product by
+/// `1 / n`): each pixel's value, its 3 × 3 sums (across, then the rows
+/// above and below) and its error, one pixel after the other.
 fn levelled_one_by_one(
     (width, height): (usize, usize),
     pixel: impl Fn(usize) -> Pixel,
@@ -257,7 +258,7 @@ fn levelled_one_by_one(
                 {
                     add(&mut sum, across(x, ny));
                 }
-                let level = std::array::from_fn(|c| super::level(&v, &sum, c));
+                let level = std::array::from_fn(|c| v[c].min(sum[c] * (1.0 / sum[3])));
                 pixel_error_against(&pixel(i), scale, halves, Against::Level(level))
             };
             errors.push(e.unwrap_or(f64::NAN));

@@ -11,8 +11,8 @@ const FAKE_CONNECTIONS: usize = 64;
 /// Runs of each row of table 2.
 const CAPACITY_RUNS: usize = 3;
 /// Jobs a run submits, one after the other, to the same coordinator and
-/// workers: the first meets a fresh process (new streams' buffers, a new
-/// tile log), the next one a coordinator that has been running.
+/// workers: the first meets a fresh process (its streams' buffers first
+/// touched), the next one a coordinator that has been running.
 const JOBS: usize = 2;
 
 /// The capacity job: a big film of trivial content. 2048² is the largest
@@ -93,7 +93,7 @@ async fn fake_worker(channel: tonic::transport::Channel, tiles: Arc<Tiles>, in_f
     });
 }
 
-/// One capacity run's measures: the coordinator's CPU seconds a tile
+/// One capacity job's measures: the coordinator's CPU seconds a tile
 /// while the job's middle tiles merge, and wall and CPU seconds from the
 /// submit call to the finished image received.
 struct Capacity {
@@ -293,7 +293,7 @@ pub(super) fn capacity_table(rt: &Runtime) {
     println!(
         "{:>7} {:>4} {:>7} {:>7} | {:>10} {:>12} | {:>10} {:>10} {:>12} {:>10} | {:>8} {:>8} {:>8}",
         "workers",
-        "job",
+        "#",
         "tiles",
         "joined",
         "µs/tile",
@@ -316,7 +316,7 @@ pub(super) fn capacity_table(rt: &Runtime) {
             }
         }
         if let Some(e) = failure {
-            println!("{workers:>7} {n:>7} failed: {e}");
+            println!("{workers:>7} {:>4} {n:>7} failed: {e}", "");
             continue;
         }
         for job in 0..JOBS {
@@ -330,9 +330,10 @@ pub(super) fn capacity_table(rt: &Runtime) {
             let steady = median(&|c| c.cpu_steady);
             let (wi, ci) = (median(&|c| c.wall_image), median(&|c| c.cpu_image));
             println!(
-                "{workers:>7} {:>4} {n:>7} {:>7.2} | {:>10.1} {:>12.0} | {:>10.0} {:>10.1} {:>12.0} {:>10.1} | {:>8.0} {:>8.0} {:>8.1}",
+                "{workers:>7} {:>4} {n:>7} {:>7} | {:>10.1} {:>12.0} | {:>10.0} {:>10.1} {:>12.0} {:>10.1} | {:>8.0} {:>8.0} {:>8.1}",
                 job + 1,
-                median(&|c| c.register),
+                // Workers join once, before the run's first job.
+                if job == 0 { format!("{:.2}", median(&|c| c.register)) } else { "-".into() },
                 1e6 * steady,
                 1.0 / steady,
                 rate(wi),
@@ -348,7 +349,7 @@ pub(super) fn capacity_table(rt: &Runtime) {
     let _ = std::fs::remove_dir_all(&dir);
     println!(
         "Medians of {CAPACITY_RUNS} runs, each on a fresh coordinator with its journal, of the \
-         run's first job and of the next one (job 2: the same coordinator and workers, warm \
+         run's first job and of the next one (# = 2: the same coordinator and workers, warm \
          from the first, as in a farm left running). Joined = \
          wall seconds to register every fake worker and open its Work stream. 10-90% = the \
          coordinator process's own CPU seconds (user + system, /proc, 10 ms ticks) a tile \

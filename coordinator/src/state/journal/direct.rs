@@ -6,7 +6,7 @@
 //! buys nothing. Copying 66 MB (a 2048² job's image) into fresh page-cache
 //! pages was most of the journal's CPU for a job's ending: new memory
 //! each time, and 66 MB of the cache taken from what is read again.
-//! Written past the cache, the bytes go from one reused buffer to the
+//! Written past the cache, the bytes go from one 4 MiB buffer to the
 //! disk: the capacity bench's coordinator spent about 32 ms less a job on
 //! its journal thread (perf samples, 1,110 and 1,006 → 902 and 838 over
 //! six jobs), for about 12 ms more wall time to the ending's commit
@@ -16,8 +16,9 @@
 //! length and offset. [`Direct`] gathers the bytes in an aligned buffer,
 //! writes it whole, pads the last piece with zeros and cuts the file back
 //! to the bytes given before syncing it. Where the OS or the file system
-//! refuses (tmpfs, other systems), [`Direct::create`] or a write fails and
-//! the caller writes through the cache instead.
+//! refuses (a file system without `O_DIRECT`, other systems),
+//! [`Direct::create`] or a write fails and the caller writes through the
+//! cache instead.
 
 use std::fs::File;
 use std::io::{self, Write};

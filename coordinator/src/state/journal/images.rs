@@ -92,8 +92,13 @@ impl Images {
         // through it; synced either way.
         let direct = || {
             let mut w = Direct::create(&path)?;
-            write_events(&mut w, events, &encode)?;
-            w.finish()
+            let written = write_events(&mut w, events, &encode).and_then(|()| w.finish());
+            // Opened but not written: a disk error or a file system that
+            // takes the flag and not the writes; worth a look either way.
+            if let Err(e) = &written {
+                warn!(job, error = %e, "cannot write the image past the page cache");
+            }
+            written
         };
         let cached = || {
             let mut w = BufWriter::with_capacity(1 << 20, File::create(&path)?);
