@@ -274,10 +274,15 @@ impl Node {
     /// operations lane by lane, so the same bits (the compares are the
     /// ordered, quiet ones, false for NaN like SSE's).
     ///
+    /// `#[inline]`: without it the AVX walks called it, once a node
+    /// (the walks have AVX too, so it can be inlined into them); inlined,
+    /// the Embree comparison's walks took 4–13% less time.
+    ///
     /// # Safety
     /// The CPU must have AVX.
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx")]
+    #[inline]
     pub(super) unsafe fn hit_avx(&self, r: &SlabRay, ray_t_max: f32) -> (u32, [f32; WIDTH]) {
         use std::arch::x86_64::*;
         let (o, inv) = (r.o.to_array(), r.inv.to_array());
