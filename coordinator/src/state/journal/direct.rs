@@ -1,44 +1,49 @@
 //! Writing a new file past the page cache (`O_DIRECT`, Linux), for the
-//! journal's finished images.
+//! journal's finished images and tile logs.
 //!
-//! An image is synced to the disk as soon as it is written, and read again
-//! only when a watcher asks for it after a restart, so the OS's copy of it
-//! buys nothing. Copying 66 MB (a 2048² job's image) into fresh page-cache
-//! pages was most of the journal's CPU for a job's ending: new memory
-//! each time, and 66 MB of the cache taken from what is read again.
-//! Written past the cache, the bytes go from one 4 MiB buffer to the
-//! disk: the capacity bench's coordinator spent about 32 ms less a job on
-//! its journal thread (perf samples, 1,110 and 1,006 → 902 and 838 over
-//! six jobs), for about 12 ms more wall time to the ending's commit
-//! (`cargo bench -p farm-coordinator --bench journal`: 51–57 → 66–71 ms).
+//! Both are read again only after a restart, so the OS's copy of them
+//! buys nothing, and making it was most of the journal thread's CPU: the
+//! kernel copying every byte into fresh page-cache pages (a 2048² job
+//! writes 134 MB of tiles and a 66 MB image), then freeing them when the
+//! job's files were deleted, and the cache held them in place of what is
+//! read again. Written past the cache, the bytes go from an aligned
+//! buffer to the disk:
+//! - images: the capacity bench's coordinator spent about 32 ms less a
+//!   job on its journal thread (perf samples, 1,110 and 1,006 → 902 and
+//!   838 over six jobs), for about 12 ms more wall time to the ending's
+//!   commit (`cargo bench -p farm-coordinator --bench journal`: 51–57 →
+//!   66–71 ms);
+//! - tile logs: about 44 ms less a job on that thread (`tiles.rs`).
 //!
 //! The OS wants such writes aligned to the disk's blocks: in address,
-//! length and offset. [`Direct`] gathers the bytes in an aligned buffer,
-//! writes it whole, pads the last piece with zeros and cuts the file back
-//! to the bytes given before syncing it. Where the OS or the file system
-//! refuses (a file system without `O_DIRECT`, other systems),
-//! [`Direct::create`] or a write fails and the caller writes through the
-//! cache instead.
+//! length and offset. [`Direct`] gathers the bytes in an aligned buffer
+//! and writes it whole, the last partial block padded with zeros. An
+//! image is then cut back to the bytes given and synced; a tile log,
+//! written out at every batch, writes its last partial block again with
+//! the next batch. Where the OS or the file system refuses (a file system
+//! without `O_DIRECT`, other systems), [`Direct::with_chunk`] or a write
+//! fails and the caller writes through the cache instead.
 
 use std::fs::File;
-use std::io::{self, Write};
+use std::io::{self, Seek, SeekFrom, Write};
 use std::path::Path;
 
 /// Alignment of address, length and offset that every Linux block device
 /// accepts (a multiple of 512-byte and 4 KB sectors alike).
-const ALIGN: usize = 4096;
-/// Bytes written at once: enough that the disk is kept busy.
+pub(super) const ALIGN: usize = 4096;
+/// Bytes an image writes at once: enough that the disk is kept busy.
 const CHUNK: usize = 4 << 20;
 
 /// A new file written past the page cache.
 pub(super) struct Direct {
     file: File,
-    /// `CHUNK + ALIGN` bytes, of which `start..start + CHUNK` is aligned.
+    /// `chunk + ALIGN` bytes, of which `start..start + chunk` is aligned.
     buf: Vec<u8>,
     start: usize,
-    /// Bytes of the chunk filled.
+    chunk: usize,
+    /// Bytes of the chunk filled: the file's bytes from `written` on.
     len: usize,
-    /// Bytes written to the file.
+    /// Bytes of the file before the chunk's (a multiple of [`ALIGN`]).
     written: u64,
 }
 
@@ -46,6 +51,13 @@ impl Direct {
     /// Creates (or empties) `path` to write past the page cache; an error
     /// where the OS or the file system does not allow it.
     pub fn create(path: &Path) -> io::Result<Direct> {
+        Self::with_chunk(path, CHUNK)
+    }
+
+    /// As [`Direct::create`], writing at most `chunk` bytes at once (a
+    /// multiple of [`ALIGN`]).
+    pub fn with_chunk(path: &Path, chunk: usize) -> io::Result<Direct> {
+        debug_assert!(chunk > 0 && chunk.is_multiple_of(ALIGN));
         #[cfg(target_os = "linux")]
         {
             use std::os::unix::fs::OpenOptionsExt;
@@ -55,9 +67,9 @@ impl Direct {
                 .truncate(true)
                 .custom_flags(libc::O_DIRECT)
                 .open(path)?;
-            let buf = vec![0u8; CHUNK + ALIGN];
+            let buf = vec![0u8; chunk + ALIGN];
             let start = buf.as_ptr().align_offset(ALIGN);
-            Ok(Direct { file, buf, start, len: 0, written: 0 })
+            Ok(Direct { file, buf, start, chunk, len: 0, written: 0 })
         }
         #[cfg(not(target_os = "linux"))]
         {
@@ -66,42 +78,80 @@ impl Direct {
         }
     }
 
-    /// Writes the chunk's first `n` bytes (a multiple of [`ALIGN`]).
-    fn write_chunk(&mut self, n: usize) -> io::Result<()> {
-        self.file.write_all(&self.buf[self.start..self.start + n])?;
-        self.written += n as u64;
-        self.len = 0;
+    /// Writes the chunk's first `len` bytes, padded with zeros to a whole
+    /// block, at `written`; then keeps the last partial block (if any) at
+    /// the chunk's start, to be written again, whole, with what follows it.
+    fn write_chunk(&mut self) -> io::Result<()> {
+        let padded = self.len.next_multiple_of(ALIGN);
+        self.buf[self.start + self.len..self.start + padded].fill(0);
+        self.file.seek(SeekFrom::Start(self.written))?;
+        self.file.write_all(&self.buf[self.start..self.start + padded])?;
+        let whole = self.len / ALIGN * ALIGN;
+        self.buf.copy_within(self.start + whole..self.start + self.len, self.start);
+        self.written += whole as u64;
+        self.len -= whole;
         Ok(())
+    }
+
+    /// Hands every byte given so far to the disk. The file then holds them
+    /// and fewer than [`ALIGN`] zeros after them, which the next bytes
+    /// given overwrite: a reader must take zeros past its last record for
+    /// the end. The bytes already written are written again only in the
+    /// last, partial block, with the same values, so a write torn by a
+    /// crash cannot damage them.
+    pub fn write_out(&mut self) -> io::Result<()> {
+        if self.len == 0 {
+            return Ok(());
+        }
+        self.write_chunk()
     }
 
     /// Writes what is left, cuts the file to the bytes given and syncs
     /// its data (and so its length) to the disk.
     pub fn finish(mut self) -> io::Result<()> {
         let total = self.written + self.len as u64;
-        let padded = self.len.next_multiple_of(ALIGN);
-        let from = self.start + self.len;
-        self.buf[from..self.start + padded].fill(0);
-        if padded > 0 {
-            self.write_chunk(padded)?;
-        }
+        self.write_out()?;
         self.file.set_len(total)?;
         self.file.sync_data()
+    }
+
+    /// Syncs what was written out to the disk, with the file's length.
+    pub fn sync_data(&self) -> io::Result<()> {
+        self.file.sync_data()
+    }
+
+    /// For a writer through the cache to take over: the length of the
+    /// file's bytes that are surely written (what follows may be partly
+    /// written, or zeros), and the bytes given after them, to cut the file
+    /// at the one and append the other.
+    pub fn unwritten(&self) -> (u64, &[u8]) {
+        (self.written, &self.buf[self.start..self.start + self.len])
+    }
+}
+
+#[cfg(test)]
+impl Direct {
+    /// Writes from now on to `file` instead (a test's failing writes).
+    pub fn replace_file(&mut self, file: File) {
+        self.file = file;
     }
 }
 
 impl Write for Direct {
+    /// Writes a full chunk first, so that an error takes none of `data`.
     fn write(&mut self, data: &[u8]) -> io::Result<usize> {
-        let n = data.len().min(CHUNK - self.len);
+        if self.len == self.chunk {
+            self.write_chunk()?;
+        }
+        let n = data.len().min(self.chunk - self.len);
         let at = self.start + self.len;
         self.buf[at..at + n].copy_from_slice(&data[..n]);
         self.len += n;
-        if self.len == CHUNK {
-            self.write_chunk(CHUNK)?;
-        }
         Ok(n)
     }
 
-    /// Nothing: [`Direct::finish`] writes the last, partial chunk.
+    /// Nothing: [`Direct::write_out`] and [`Direct::finish`] write the
+    /// last, partial chunk.
     fn flush(&mut self) -> io::Result<()> {
         Ok(())
     }
