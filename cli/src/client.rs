@@ -287,6 +287,8 @@ pub async fn submit_parsed(
 /// A finished job's image as the coordinator sent it.
 #[derive(Clone, Debug)]
 pub struct JobImage {
+    /// The job's name as submitted (empty from an older coordinator).
+    pub name: String,
     /// The image.
     pub image: farm_common::image::RgbImage,
     /// The render's estimate of its own error.
@@ -405,6 +407,7 @@ async fn watch_once(
                     rel_mse,
                 });
                 return Ok(JobImage {
+                    name: done.facts.name,
                     image: done.image,
                     error,
                     spp: done.facts.spp,

@@ -169,6 +169,26 @@ fn sigkill_of_the_coordinator_loses_only_the_tiles_in_flight() {
     ]);
     assert_eq!(code, Some(0), "{err}");
     assert!(std::fs::read(&watched).expect("watched image") == a, "farm watch wrote another image");
+    // An EXR written by `farm watch` carries the job's name, as one written
+    // by `farm submit` carries the scene's.
+    let watched = dir.join("watched.exr");
+    let (code, _, err) = run(&[
+        "watch",
+        &j.job_id.to_string(),
+        "--coordinator",
+        &url,
+        "--token-file",
+        &client_token.to_string_lossy(),
+        "-o",
+        &watched.to_string_lossy(),
+    ]);
+    assert_eq!(code, Some(0), "{err}");
+    let meta = exr::meta::MetaData::read_from_file(&watched, false).expect("EXR header");
+    let name =
+        meta.headers[0].own_attributes.other.get(&exr::meta::attribute::Text::from("sceneName"));
+    let want = exr::meta::attribute::AttributeValue::Text(j.name.as_str().into());
+    assert!(!j.name.is_empty());
+    assert_eq!(name, Some(&want), "the job is named {}", j.name);
     drop(procs);
 }
 

@@ -65,6 +65,7 @@ fn main() {
     let mut bytes = 0u64;
     let side = 2048usize;
     let finished = std::sync::Arc::new(FinishedJob {
+        name: "bench.pbrt".into(),
         image: RgbImage {
             width: side,
             height: side,

@@ -65,7 +65,7 @@ pub async fn run(args: WatchArgs) -> ExitCode {
         startup_seconds: 0.0,
         render_seconds: done.render_seconds,
         features: Features::default(),
-        scene_name: format!("job {job}"),
+        scene_name: scene_name(&done.name, job),
         warnings: Vec::new(),
         passes: done.passes,
         stopped: done.stopped,
@@ -84,4 +84,14 @@ pub async fn run(args: WatchArgs) -> ExitCode {
         );
     }
     ExitCode::SUCCESS
+}
+
+/// The scene name the written image carries: the job's as submitted, or
+/// "job N" from a coordinator that sends none.
+fn scene_name(name: &str, job: u64) -> String {
+    if name.is_empty() {
+        format!("job {job}")
+    } else {
+        name.to_string()
+    }
 }

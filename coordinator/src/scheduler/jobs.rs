@@ -445,6 +445,7 @@ impl Scheduler {
             return;
         }
         let finished = std::sync::Arc::new(FinishedJob {
+            name: j.spec.name.clone(),
             image: ended.image,
             error: ended.error,
             spp,

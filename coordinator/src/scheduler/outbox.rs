@@ -67,6 +67,8 @@ pub enum JobUpdate {
 /// A completed job's image and facts.
 #[derive(Clone, Debug, PartialEq)]
 pub struct FinishedJob {
+    /// The job's name as submitted.
+    pub name: String,
     /// The image.
     pub image: RgbImage,
     /// Samples per pixel.

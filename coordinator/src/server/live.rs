@@ -210,6 +210,7 @@ mod tests {
 
     fn finished(pixels: usize) -> Arc<FinishedJob> {
         Arc::new(FinishedJob {
+            name: String::new(),
             image: RgbImage { width: pixels, height: 1, pixels: vec![[0.5; 3]; pixels] },
             error: None,
             spp: 1,

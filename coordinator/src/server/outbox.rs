@@ -96,6 +96,7 @@ pub(crate) fn job_events(update: &JobUpdate) -> Vec<v1::JobEvent> {
         }
         JobUpdate::Finished(f) => {
             let facts = ImageFacts {
+                name: f.name.clone(),
                 spp: f.spp,
                 render_seconds: f.render_seconds,
                 stats: f.stats,
@@ -318,6 +319,7 @@ mod tests {
         assert_eq!(out.watchers[&job].len(), 2, "the closed watcher is dropped");
         let (w, h) = (1024, 700);
         let finished = Arc::new(FinishedJob {
+            name: "scene.pbrt".into(),
             image: RgbImage { width: w, height: h, pixels: vec![[0.25, 0.5, 1.0]; w * h] },
             error: None,
             spp: 1,
@@ -330,6 +332,10 @@ mod tests {
         let mut want = job_events(&progress);
         want.extend(job_events(&update));
         assert!(want.len() > 2, "the image should take several events");
+        for e in &want[1..] {
+            let Some(job_event::Kind::Image(img)) = &e.kind else { panic!("not an image") };
+            assert_eq!(img.name, "scene.pbrt", "every chunk names the job");
+        }
         out.notify(job, update);
         assert!(!out.watchers.contains_key(&job), "a finished job has no watchers left");
         for i in [0, 2] {

@@ -16,6 +16,8 @@ pub const IMAGE_CHUNK_BYTES: usize = 8 << 20;
 /// What travels with a finished image.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct ImageFacts {
+    /// The job's name as submitted (empty when the coordinator sent none).
+    pub name: String,
     /// Samples per pixel.
     pub spp: u32,
     /// Seconds from the first assignment to the last tile.
@@ -135,6 +137,7 @@ pub fn image_chunks(
                 first_row: y0 as u32,
                 error_map: error.map_or_else(Bytes::new, |(e, _)| rows(e, y0, y1, 4)),
                 estimated_rel_mse: error.map(|(_, e)| *e),
+                name: facts.name.clone(),
                 spp: facts.spp,
                 render_seconds: facts.render_seconds,
                 stats: Some(v1::RayStats::from(&facts.stats)),
@@ -214,6 +217,7 @@ impl ImageAssembler {
         let Some(image) = self.image.take() else { return Ok(None) };
         let error = img.estimated_rel_mse.map(|e| (std::mem::take(&mut self.error_map), e));
         let facts = ImageFacts {
+            name: img.name.clone(),
             spp: img.spp,
             render_seconds: img.render_seconds,
             stats: img.stats.as_ref().map(RayStats::from).unwrap_or_default(),
@@ -245,6 +249,7 @@ mod tests {
         let img = image(w, 7);
         let map: Vec<f32> = (0..w * 7).map(|i| i as f32 * 1e-3).collect();
         let facts = ImageFacts {
+            name: "chunks.pbrt".into(),
             spp: 16,
             render_seconds: 1.5,
             stats: RayStats::default(),

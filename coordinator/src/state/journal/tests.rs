@@ -229,6 +229,7 @@ async fn a_finished_image_is_read_back_as_the_events_a_watcher_is_sent() {
     let (w, h) = (1024, 700);
     let pixels = (0..w * h).map(|i| [i as f32, 0.5, -(i as f32)]).collect();
     let finished = std::sync::Arc::new(FinishedJob {
+        name: "stored.pbrt".into(),
         image: RgbImage { width: w, height: h, pixels },
         error: None,
         spp: 3,
