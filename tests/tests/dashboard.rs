@@ -40,15 +40,19 @@ async fn browser() -> Option<(Driver, Client)> {
         return None;
     };
     let port = std::net::TcpListener::bind("127.0.0.1:0").unwrap().local_addr().unwrap().port();
+    let dir = tempfile::Builder::new().prefix("farm-chromium-").tempdir().expect("temp dir");
+    // Chromium's own scratch folders go in here too, and go with it.
+    let tmp = dir.path().join("tmp");
+    std::fs::create_dir(&tmp).expect("temp dir");
     let child = Command::new(driver)
         .arg(format!("--port={port}"))
+        .env("TMPDIR", &tmp)
         .stdout(Stdio::null())
         .stderr(Stdio::null())
         .spawn()
         .expect("start chromedriver");
-    let profile = tempfile::Builder::new().prefix("farm-chromium-").tempdir().expect("temp dir");
-    let driver = Driver(child, profile);
-    let profile = driver.1.path();
+    let driver = Driver(child, dir);
+    let profile = driver.1.path().join("profile");
     let mut caps = serde_json::Map::new();
     caps.insert(
         "goog:chromeOptions".into(),
