@@ -45,6 +45,9 @@ pub(super) struct Direct {
     len: usize,
     /// Bytes of the file before the chunk's (a multiple of [`ALIGN`]).
     written: u64,
+    /// Whether bytes were given since the chunk was last written: a log
+    /// with nothing new is not written out again.
+    fresh: bool,
 }
 
 impl Direct {
@@ -69,7 +72,7 @@ impl Direct {
                 .open(path)?;
             let buf = vec![0u8; chunk + ALIGN];
             let start = buf.as_ptr().align_offset(ALIGN);
-            Ok(Direct { file, buf, start, chunk, len: 0, written: 0 })
+            Ok(Direct { file, buf, start, chunk, len: 0, written: 0, fresh: false })
         }
         #[cfg(not(target_os = "linux"))]
         {
@@ -90,6 +93,7 @@ impl Direct {
         self.buf.copy_within(self.start + whole..self.start + self.len, self.start);
         self.written += whole as u64;
         self.len -= whole;
+        self.fresh = false;
         Ok(())
     }
 
@@ -100,7 +104,7 @@ impl Direct {
     /// last, partial block, with the same values, so a write torn by a
     /// crash cannot damage them.
     pub fn write_out(&mut self) -> io::Result<()> {
-        if self.len == 0 {
+        if !self.fresh {
             return Ok(());
         }
         self.write_chunk()
@@ -147,6 +151,7 @@ impl Write for Direct {
         let at = self.start + self.len;
         self.buf[at..at + n].copy_from_slice(&data[..n]);
         self.len += n;
+        self.fresh |= n > 0;
         Ok(n)
     }
 
@@ -182,6 +187,40 @@ mod tests {
             }
             w.finish().unwrap();
             assert_eq!(std::fs::read(&path).unwrap(), bytes, "{len} bytes");
+        }
+    }
+
+    /// Written out after pieces that end short of a block, on one, on a
+    /// full chunk and past it: the file holds every byte given, then fewer
+    /// than a block of zeros; and with nothing new it is not written at
+    /// all (a read-only file would fail the write).
+    #[test]
+    fn written_out_piece_by_piece_the_file_holds_every_byte_then_zeros() {
+        let tmp = tempfile::Builder::new().prefix("farm-direct-out-").tempdir().unwrap();
+        let path = tmp.path().join("f");
+        let chunk = 4 * ALIGN;
+        let Ok(mut w) = Direct::with_chunk(&path, chunk) else {
+            eprintln!("skipped: {} does not take O_DIRECT writes", tmp.path().display());
+            return;
+        };
+        let mut given = Vec::new();
+        for n in [ALIGN - 1, 1, ALIGN, chunk, chunk - 5, 5, chunk + 1, 0, 3 * chunk + 7] {
+            let piece: Vec<u8> = (0..n).map(|i| (given.len() + i) as u8 | 1).collect();
+            w.write_all(&piece).unwrap();
+            given.extend(piece);
+            w.write_out().unwrap();
+            let file = std::fs::read(&path).unwrap();
+            assert_eq!(file.len() % ALIGN, 0, "after {} bytes", given.len());
+            assert!(file.len() - given.len() < ALIGN, "after {} bytes", given.len());
+            assert_eq!(&file[..given.len()], &given[..]);
+            assert!(file[given.len()..].iter().all(|&b| b == 0));
+            let (surely, rest) = w.unwritten();
+            assert_eq!(surely as usize + rest.len(), given.len());
+            // Nothing new: nothing written, so a file that cannot be
+            // written does not fail it.
+            let writable = std::mem::replace(&mut w.file, File::open(&path).unwrap());
+            w.write_out().unwrap();
+            w.file = writable;
         }
     }
 }

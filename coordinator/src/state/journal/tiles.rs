@@ -24,7 +24,8 @@
 //! partial block padded with zeros and written again with the next batch.
 //! So a log can end in fewer than a block of zeros, which reading takes
 //! for its end. A log opened again after a restart is appended to through
-//! the cache, as is every log where `O_DIRECT` is refused.
+//! the cache, as is every log where `O_DIRECT` is refused, and one whose
+//! write past the cache failed (from then on).
 //!
 //! Measured against the cache (2048² jobs, 8 KB tiles):
 //! - `cargo bench -p farm-coordinator --bench journal`: the journal
@@ -407,11 +408,12 @@ mod tests {
             }
             std::fs::copy(&path, &copy).unwrap();
             let f = File::open(&copy).unwrap();
-            let Ok(Found::Records { end, .. }) =
+            let Ok(Found::Records { records, end, .. }) =
                 records::read(&mut BufReader::new(&f), MAGIC, size)
             else {
                 panic!("not read")
             };
+            assert_eq!(records.len(), expect.len(), "each record once");
             assert!(is_padding(&f, end, size).unwrap(), "{} bytes after the records", size - end);
             assert_eq!(l.read(2), expect);
             assert_eq!(std::fs::metadata(&copy).unwrap().len(), end);
@@ -453,6 +455,15 @@ mod tests {
                 }
                 l.flush();
                 assert_eq!(matches!(l.open[&job], Log::Cached(_)), i >= fails_at);
+                let path = dir.join(format!("{job}.log"));
+                let size = std::fs::metadata(&path).unwrap().len();
+                let f = File::open(&path).unwrap();
+                let Ok(Found::Records { records, .. }) =
+                    records::read(&mut BufReader::new(&f), MAGIC, size)
+                else {
+                    panic!("not read")
+                };
+                assert_eq!(records.len(), expect.len(), "each record once: job {job}, batch {i}");
                 assert_eq!(l.read(job), expect, "job {job}, batch {i}");
             }
         }
