@@ -48,9 +48,11 @@ fn write_exr(path: &Path, img: &RgbImage, meta: &ImageMetadata) -> Result<(), Im
     if let Some(e) = meta.rel_mse_estimate {
         attrs.other.insert(Text::from("relMSEEstimate"), AttributeValue::F32(e));
     }
-    attrs
-        .other
-        .insert(Text::from("sceneName"), AttributeValue::Text(Text::from(meta.scene.as_str())));
+    // The name's UTF-8 bytes, as C++ OpenEXR keeps a std::string: any name
+    // a client gave its job, where the crate's own conversion takes
+    // Latin-1 only (and panics on the rest).
+    let scene = Text::from_slice_unchecked(meta.scene.as_bytes());
+    attrs.other.insert(Text::from("sceneName"), AttributeValue::Text(scene));
     let w = img.width;
     let layer = Layer::new(
         (img.width, img.height),
@@ -96,4 +98,32 @@ fn write_png(path: &Path, img: &RgbImage) -> Result<(), ImageError> {
     writer.write_image_data(&data).map_err(png_err)?;
     writer.finish().map_err(png_err)?;
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A job may carry any name its client gave it: an EXR keeps its UTF-8
+    /// bytes (the crate's own text conversion took Latin-1 only and
+    /// panicked on the rest), and the pixels round-trip.
+    #[test]
+    fn an_exr_keeps_any_scene_name_as_utf8() {
+        let tmp = tempfile::Builder::new().prefix("farm-exr-name-").tempdir().unwrap();
+        let img = RgbImage { width: 2, height: 1, pixels: vec![[1.0, 0.5, 0.25], [0.0, 2.0, 4.0]] };
+        for name in ["scene.pbrt", "café.pbrt", "シーン 🎬.pbrt"] {
+            let path = tmp.path().join("a.exr");
+            let meta = ImageMetadata { scene: name.into(), ..Default::default() };
+            write_image(&path, &img, &meta).unwrap();
+            let header = exr::meta::MetaData::read_from_file(&path, false).unwrap();
+            let key = exr::meta::attribute::Text::from("sceneName");
+            let Some(exr::meta::attribute::AttributeValue::Text(t)) =
+                header.headers[0].own_attributes.other.get(&key)
+            else {
+                panic!("no sceneName")
+            };
+            assert_eq!(t.as_slice(), name.as_bytes());
+            assert_eq!(crate::image::read_file(&path).unwrap(), img);
+        }
+    }
 }
