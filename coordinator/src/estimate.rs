@@ -94,6 +94,7 @@ pub(crate) fn sum_counted(errors: &[f64]) -> (f64, usize) {
 /// [`pixel_error_against`] divides by `w`: the level need not match it
 /// bit for bit), or
 /// `None` when a half has no samples there.
+#[inline(always)]
 fn sampled_value(p: &Pixel, scale: f32) -> Option<[f64; 3]> {
     let (w, _, _) = half_weights(p)?;
     let per = 1.0 / w;
