@@ -156,33 +156,26 @@ fn sigkill_of_the_coordinator_loses_only_the_tiles_in_flight() {
     assert!(a == b, "the image after a coordinator restart differs from the embedded render");
 
     // `farm watch` fetches the finished image from anywhere, again.
+    let watch = |out: &std::path::Path| {
+        let (code, _, err) = run(&[
+            "watch",
+            &j.job_id.to_string(),
+            "--coordinator",
+            &url,
+            "--token-file",
+            &client_token.to_string_lossy(),
+            "-o",
+            &out.to_string_lossy(),
+        ]);
+        assert_eq!(code, Some(0), "{err}");
+    };
     let watched = dir.join("watched.pfm");
-    let (code, _, err) = run(&[
-        "watch",
-        &j.job_id.to_string(),
-        "--coordinator",
-        &url,
-        "--token-file",
-        &client_token.to_string_lossy(),
-        "-o",
-        &watched.to_string_lossy(),
-    ]);
-    assert_eq!(code, Some(0), "{err}");
+    watch(&watched);
     assert!(std::fs::read(&watched).expect("watched image") == a, "farm watch wrote another image");
     // An EXR written by `farm watch` carries the job's name, as one written
     // by `farm submit` carries the scene's.
     let watched = dir.join("watched.exr");
-    let (code, _, err) = run(&[
-        "watch",
-        &j.job_id.to_string(),
-        "--coordinator",
-        &url,
-        "--token-file",
-        &client_token.to_string_lossy(),
-        "-o",
-        &watched.to_string_lossy(),
-    ]);
-    assert_eq!(code, Some(0), "{err}");
+    watch(&watched);
     let meta = exr::meta::MetaData::read_from_file(&watched, false).expect("EXR header");
     let name =
         meta.headers[0].own_attributes.other.get(&exr::meta::attribute::Text::from("sceneName"));
