@@ -179,7 +179,8 @@ fn sigkill_of_the_coordinator_loses_only_the_tiles_in_flight() {
     let meta = exr::meta::MetaData::read_from_file(&watched, false).expect("EXR header");
     let name =
         meta.headers[0].own_attributes.other.get(&exr::meta::attribute::Text::from("sceneName"));
-    let want = exr::meta::attribute::AttributeValue::Text(j.name.as_str().into());
+    let want = exr::meta::attribute::Text::from_slice_unchecked(j.name.as_bytes());
+    let want = exr::meta::attribute::AttributeValue::Text(want);
     assert!(!j.name.is_empty());
     assert_eq!(name, Some(&want), "the job is named {}", j.name);
     drop(procs);

@@ -36,7 +36,7 @@ pub struct ImagePiece {
 /// Facts about a render stored with the image where the format allows.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct ImageMetadata {
-    /// The scene's name.
+    /// The scene's name (an EXR's `sceneName`, as its UTF-8 bytes).
     pub scene: String,
     /// Samples per pixel.
     pub spp: u32,

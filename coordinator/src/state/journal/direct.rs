@@ -222,5 +222,9 @@ mod tests {
             w.write_out().unwrap();
             w.file = writable;
         }
+        // Finished after a write-out that left a partial block: cut to
+        // the bytes given.
+        w.finish().unwrap();
+        assert_eq!(std::fs::read(&path).unwrap(), given);
     }
 }
