@@ -34,7 +34,7 @@
 //!   800 MB/s; through the cache they waited for nothing);
 //! - the capacity bench at one worker, perf samples of the coordinator's
 //!   journal thread over six jobs: 695 → 431 (about 44 ms a job); the
-//!   coordinator's CPU a tile between 10% and 90% of a job, two turns of
+//!   coordinator's CPU a tile between 10% and 90% of a job, four turns of
 //!   each binary: 16.8–17.5 → 14.5–16.0 µs.
 
 use super::direct::{Direct, ALIGN};
