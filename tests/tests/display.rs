@@ -164,3 +164,38 @@ async fn live_previews_come_in_batches_worth_sending() {
     }
     cluster.stop().await;
 }
+
+/// `farm watch --display-server` names the image in tev after the job, as
+/// `farm submit` does, before the finished image (which carries the name)
+/// arrives; it used to show "job N".
+#[tokio::test(flavor = "multi_thread", worker_threads = 4)]
+async fn farm_watch_names_its_tev_image_after_the_job() {
+    use farm_cli::client::{self, RemoteOptions};
+    use farm_cli::commands::watch::{self, WatchArgs};
+    use farm_cli::commands::{RemoteArgs, TokenArgs};
+    let cluster =
+        farm_tests::cluster::TestCluster::start(1, std::time::Duration::from_millis(500)).await;
+    let remote = cluster.remote();
+    let opts = RemoteOptions { spp: Some(4), detach: true, ..Default::default() };
+    let job = client::start(&remote, &scene(), &opts).await.expect("submit").job;
+    let dir = tempfile::tempdir().expect("temp dir");
+    let tev = FakeTev::start();
+    let args = WatchArgs {
+        job,
+        output: Some(dir.path().join("watched.exr")),
+        quiet: true,
+        display_server: Some(tev.address.clone()),
+        reconnect_for: 10.0,
+        remote: RemoteArgs { coordinator: remote.url.clone(), token: TokenArgs::default() },
+    };
+    assert_eq!(watch::run(args).await, std::process::ExitCode::SUCCESS);
+    let seen = tev.finish();
+    assert!(seen.errors.is_empty(), "{:?}", seen.errors);
+    let titles: Vec<&String> = seen.images.keys().collect();
+    assert!(
+        titles.iter().any(|t| t.starts_with("example.pbrt (")),
+        "no image named after the job: {titles:?}"
+    );
+    assert!(titles.iter().all(|t| !t.starts_with("job ")), "{titles:?}");
+    cluster.stop().await;
+}

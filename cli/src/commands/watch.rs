@@ -38,10 +38,13 @@ pub async fn run(args: WatchArgs) -> ExitCode {
     let bar = crate::progress::progress_bar(args.quiet);
     let job = args.job;
     let reconnect = super::submit::reconnect_for(args.reconnect_for);
-    let mut display = args
-        .display_server
-        .as_deref()
-        .map(|a| crate::display::LiveDisplay::new(a, &format!("job {job}"), args.quiet));
+    let mut display = match args.display_server.as_deref() {
+        Some(a) => {
+            let title = scene_name(&submitted_name(&remote, job).await, job);
+            Some(crate::display::LiveDisplay::new(a, &title, args.quiet))
+        }
+        None => None,
+    };
     let result = crate::client::follow_live(
         &remote,
         job,
@@ -84,6 +87,15 @@ pub async fn run(args: WatchArgs) -> ExitCode {
         );
     }
     ExitCode::SUCCESS
+}
+
+/// The job's name as submitted, from the coordinator's status, for the
+/// display server's title before the image (which carries it too)
+/// arrives; empty if the status does not list it, or cannot be had
+/// (following the job reports why).
+async fn submitted_name(remote: &crate::client::Remote, job: u64) -> String {
+    let Ok(status) = crate::client::status(remote).await else { return String::new() };
+    status.jobs.into_iter().find(|j| j.job_id == job).map(|j| j.name).unwrap_or_default()
 }
 
 /// The scene name the written image carries: the job's as submitted, or
