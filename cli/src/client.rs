@@ -342,20 +342,39 @@ pub async fn follow_live(
 ) -> Result<JobImage, Error> {
     let mut backoff = std::time::Duration::from_millis(100);
     let mut last_heard = Instant::now();
+    let mut waiting = false;
     loop {
         let attempt = async {
             let mut c = match client.take() {
                 Some(c) => c,
                 None => connect(remote).await?,
             };
-            watch_once(&mut c, job, &mut progress, &mut last_heard, display.as_deref_mut()).await
+            let r = watch_once(&mut c, job, &mut progress, &mut last_heard, display.as_deref_mut())
+                .await;
+            // Kept for the next watch when its slot was refused.
+            Ok::<_, Error>((r, c))
         };
-        match attempt.await {
+        let (result, c) = match attempt.await {
+            Ok((r, c)) => (r, Some(c)),
+            Err(e) => (Err(e), None),
+        };
+        match result {
             Ok(image) => {
                 if let Some(d) = display.as_deref_mut() {
                     d.finish(&image.image, image.error.as_ref().map(|e| e.per_pixel.as_slice()));
                 }
                 return Ok(image);
+            }
+            Err(e) if no_watch_slot(&e) => {
+                // The coordinator answered, and keeps the job for a client
+                // that waits for a slot; the job renders meanwhile.
+                if !waiting {
+                    tracing::warn!(job, error = %e, "waiting for a watch slot");
+                    waiting = true;
+                }
+                last_heard = Instant::now();
+                client = c;
+                tokio::time::sleep(WATCH_SLOT_WAIT).await;
             }
             Err(e) if transient(&e) && last_heard.elapsed() < reconnect_for => {
                 tracing::warn!(job, error = %e, "lost the coordinator; reconnecting");
@@ -365,6 +384,19 @@ pub async fn follow_live(
             Err(e) => return Err(e),
         }
     }
+}
+
+/// How long a client refused a watch slot waits before it asks again:
+/// well inside the coordinator's grace for a job's client
+/// (`ServerConfig::client_grace`, 120 s), which each refusal starts again.
+const WATCH_SLOT_WAIT: std::time::Duration = std::time::Duration::from_millis(500);
+
+/// Whether `e` is the coordinator refusing a watch because the token
+/// already has as many open as it may (`MAX_WATCHES_PER_TOKEN`): another
+/// of its clients will close one, so this one waits rather than fail, as
+/// when more frames or scenes are submitted at once than that.
+fn no_watch_slot(e: &Error) -> bool {
+    matches!(e, Error::Rpc(s) if s.code() == tonic::Code::ResourceExhausted)
 }
 
 /// One WatchJob stream, to the image, a failure, or a broken stream.

@@ -391,3 +391,53 @@ async fn a_job_whose_client_went_away_is_cancelled_unless_detached() {
     assert_eq!(state(watched), "queued");
     cluster.stop().await;
 }
+
+/// A client whose token already has every watch it may open waits for a
+/// slot instead of failing, and its job is not cancelled as left
+/// meanwhile: 17 scenes submitted at once with one token all render. (It
+/// used to fail with "this client already has 16 job watches open".)
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_client_refused_a_watch_slot_waits_for_one_and_keeps_its_job() {
+    use farm_coordinator::server::MAX_WATCHES_PER_TOKEN;
+    let mut config =
+        farm_coordinator::server::ServerConfig::with_heartbeat(Duration::from_millis(100));
+    config.client_grace = Duration::from_millis(600);
+    // No workers yet: every job stays queued while the slots are taken.
+    let mut cluster = TestCluster::start_config(0, config).await;
+    let remote = client::Remote::insecure(&cluster.url);
+    let start = |detach| {
+        let opts = RemoteOptions { spp: Some(1), detach, ..Default::default() };
+        let remote = remote.clone();
+        async move { client::start(&remote, &scene(), &opts).await.expect("submit").job }
+    };
+    let held = start(true).await;
+    let mut c = client::connect(&remote).await.expect("connect");
+    let mut open = Vec::new();
+    for _ in 0..MAX_WATCHES_PER_TOKEN {
+        let s = c.watch_job(v1::WatchJobRequest { job_id: held, live: false }).await;
+        open.push(s.expect("watch").into_inner());
+    }
+    let job = start(false).await;
+    let following = {
+        let remote = remote.clone();
+        tokio::spawn(async move {
+            client::follow(&remote, job, None, Duration::from_secs(30), |_| {}).await
+        })
+    };
+    // Well past the grace period, the waiting client's job is still there.
+    tokio::time::sleep(Duration::from_millis(2000)).await;
+    assert!(!following.is_finished(), "the client gave up: {:?}", following.await);
+    let status = client::status(&remote).await.expect("status");
+    let state = status.jobs.iter().find(|j| j.job_id == job).expect("job").state.clone();
+    assert_eq!(state, "queued");
+    // A slot frees, a worker comes: the waiting client gets its image.
+    drop(open.pop());
+    cluster.add_worker();
+    let image = tokio::time::timeout(Duration::from_secs(60), following)
+        .await
+        .expect("the waiting client got its image in time")
+        .expect("task")
+        .expect("the job rendered");
+    assert_eq!((image.image.width, image.image.height), (480, 320));
+    cluster.stop().await;
+}

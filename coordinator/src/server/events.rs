@@ -70,6 +70,13 @@ pub enum Event {
         /// Whether the job exists.
         reply: oneshot::Sender<bool>,
     },
+    /// Its client asked to watch a job it owns and was refused for
+    /// having too many watches open: it is still there, waiting for a
+    /// slot, so the job is not cancelled as unwatched meanwhile.
+    WatchWaiting {
+        /// The job.
+        job: JobId,
+    },
     /// `farm status`.
     Status {
         /// The listing.
@@ -238,6 +245,10 @@ pub async fn run(mut rx: EventRx, config: ServerConfig, state: LoopState) {
                     }
                 };
                 let _ = reply.send(id);
+            }
+            Event::WatchWaiting { job } => {
+                // The grace period starts again at the next tick.
+                unwatched.remove(&job);
             }
             Event::Watch { job, tx, live, reply } => match sched.snapshot(job) {
                 Some(Snapshot::Stored) => {

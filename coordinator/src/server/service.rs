@@ -367,6 +367,9 @@ impl Coordinator for CoordinatorService {
             let n = m.entry(by.id.clone()).or_default();
             if *n >= MAX_WATCHES_PER_TOKEN {
                 warn!(token = %by.id, "watch refused: too many open");
+                // Its client waits for a slot (`farm_cli::client::follow`)
+                // and asks again: its job must not be cancelled as left.
+                let _ = self.send(Event::WatchWaiting { job });
                 return Err(Error::TooManyWatches(MAX_WATCHES_PER_TOKEN).into());
             }
             *n += 1;
