@@ -118,16 +118,23 @@ struct Capacity {
     /// (`farm_event_loop_busy_seconds_total`): the part of its
     /// CPU that is done one event at a time, which no second core helps.
     loop_busy: f64,
+    /// Speculative hand-outs (second copies and parts of tiles still out,
+    /// once none is left to hand out) a tile of the job: messages to and
+    /// from workers beyond the tile's own.
+    speculated: f64,
 }
 
-/// The coordinator's event loop's busy seconds so far, from `/metrics`.
-async fn loop_busy(url: &str) -> Result<f64, String> {
+/// The coordinator's event loop's busy seconds and speculative hand-outs
+/// so far, from `/metrics`.
+async fn loop_counters(url: &str) -> Result<(f64, f64), String> {
     let addr = url.trim_start_matches("http://").to_string();
     let (samples, _) = tokio::task::spawn_blocking(move || farm_tests::http::scrape(&addr))
         .await
         .map_err(|e| e.to_string())??;
-    farm_tests::http::value(&samples, "farm_event_loop_busy_seconds_total", &[])
-        .ok_or_else(|| "no farm_event_loop_busy_seconds_total".to_string())
+    let value = |name: &str| {
+        farm_tests::http::value(&samples, name, &[]).ok_or_else(|| format!("no {name}"))
+    };
+    Ok((value("farm_event_loop_busy_seconds_total")?, value("farm_tiles_speculated_total")?))
 }
 
 /// Asks the coordinator every 2 ms, until `stop`, to cancel a job that
@@ -227,7 +234,7 @@ async fn capacity_run(
     let pid = procs.0[0].id().to_string();
     let mut jobs = Vec::new();
     for _ in 0..JOBS {
-        jobs.push(capacity_job(&url, &pid, scene, register).await?);
+        jobs.push(capacity_job(&url, &pid, scene, register, tiles.geometry.tile_count()).await?);
     }
     drop(procs);
     Ok(jobs)
@@ -239,9 +246,10 @@ async fn capacity_job(
     pid: &str,
     scene: &Path,
     register: f64,
+    tiles: u32,
 ) -> Result<Capacity, String> {
     let cpu = || cpu_seconds(pid).ok_or("no /proc reading of the coordinator".to_string());
-    let busy0 = loop_busy(url).await?;
+    let (busy0, speculated0) = loop_counters(url).await?;
     let (t, cpu0) = (Instant::now(), cpu()?);
     let mut marks = Marks::default();
     let opts = RemoteOptions::default();
@@ -261,9 +269,19 @@ async fn capacity_job(
     let stall = probe.await.unwrap_or(f64::NAN);
     // Quiet before the metrics are scraped, whose answer would count.
     let cpu_after = quiet(cpu).await? - cpu0 - cpu_image;
-    let loop_busy = loop_busy(url).await? - busy0;
+    let (busy1, speculated1) = loop_counters(url).await?;
+    let (loop_busy, speculated) = (busy1 - busy0, (speculated1 - speculated0) / f64::from(tiles));
     let cpu_steady = marks.per_tile().ok_or("no progress events at 10% and 90%")?;
-    Ok(Capacity { register, cpu_steady, wall_image, cpu_image, cpu_after, stall, loop_busy })
+    Ok(Capacity {
+        register,
+        cpu_steady,
+        wall_image,
+        cpu_image,
+        cpu_after,
+        stall,
+        loop_busy,
+        speculated,
+    })
 }
 
 pub(super) fn capacity_table(rt: &Runtime) {
@@ -287,11 +305,11 @@ pub(super) fn capacity_table(rt: &Runtime) {
         Err(_) => FAKE_WORKERS.to_vec(),
     };
     println!(
-        "{:>7} {:>4} {:>7} {:>7} | {:>10} {:>12} | {:>10} {:>10} {:>12} {:>10} | {:>8} {:>8} {:>8}",
-        "", "", "", "", "10-90%", "", "to image", "", "", "loop", "job", "after", "stall"
+        "{:>7} {:>4} {:>7} {:>7} | {:>10} {:>12} | {:>10} {:>10} {:>12} {:>10} | {:>8} {:>8} {:>8} | {:>6}",
+        "", "", "", "", "10-90%", "", "to image", "", "", "loop", "job", "after", "stall", "spec"
     );
     println!(
-        "{:>7} {:>4} {:>7} {:>7} | {:>10} {:>12} | {:>10} {:>10} {:>12} {:>10} | {:>8} {:>8} {:>8}",
+        "{:>7} {:>4} {:>7} {:>7} | {:>10} {:>12} | {:>10} {:>10} {:>12} {:>10} | {:>8} {:>8} {:>8} | {:>6}",
         "workers",
         "#",
         "tiles",
@@ -304,7 +322,8 @@ pub(super) fn capacity_table(rt: &Runtime) {
         "µs/tile",
         "ms",
         "ms",
-        "ms"
+        "ms",
+        "/tile"
     );
     for workers in counts {
         let mut runs: Vec<Vec<Capacity>> = Vec::new();
@@ -330,7 +349,7 @@ pub(super) fn capacity_table(rt: &Runtime) {
             let steady = median(&|c| c.cpu_steady);
             let (wi, ci) = (median(&|c| c.wall_image), median(&|c| c.cpu_image));
             println!(
-                "{workers:>7} {:>4} {n:>7} {:>7} | {:>10.1} {:>12.0} | {:>10.0} {:>10.1} {:>12.0} {:>10.1} | {:>8.0} {:>8.0} {:>8.1}",
+                "{workers:>7} {:>4} {n:>7} {:>7} | {:>10.1} {:>12.0} | {:>10.0} {:>10.1} {:>12.0} {:>10.1} | {:>8.0} {:>8.0} {:>8.1} | {:>6.2}",
                 job + 1,
                 // Workers join once, before the run's first job.
                 if job == 0 { format!("{:.2}", median(&|c| c.register)) } else { "-".into() },
@@ -343,6 +362,7 @@ pub(super) fn capacity_table(rt: &Runtime) {
                 1e3 * median(&|c| c.cpu_image - c.cpu_steady * n as f64),
                 1e3 * median(&|c| c.cpu_after),
                 1e3 * median(&|c| c.stall),
+                median(&|c| c.speculated),
             );
         }
     }
@@ -365,7 +385,9 @@ pub(super) fn capacity_table(rt: &Runtime) {
          image received to the process going quiet (no CPU tick for 100 ms): what it still does \
          for the job, such as its journal storing the image, and the last stall probes. Stall = the longest the coordinator's \
          event loop took to answer a probe sent every 2 ms while the job ran (two events: a \
-         cancel of a job that does not exist). The client's and the fake workers' CPU \
+         cancel of a job that does not exist). Spec = speculative hand-outs a tile \
+         (farm_tiles_speculated_total): copies and parts of tiles still out, given to idle \
+         workers once no tile is left to hand out, each a message to a worker and one back. The client's and the fake workers' CPU \
          is left out. The fake workers share {FAKE_CONNECTIONS} connections and ask for \
          tiles/workers tiles each (1 to 32).",
         tiles.geometry.cropped_pixel_bounds.width(),
