@@ -7,6 +7,7 @@ use serde::{Deserialize, Serialize};
 /// first half (all minus second) and the second half are two estimates of
 /// the pixel from which a render estimates its own error.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[repr(C)]
 pub struct Pixel {
     /// Σ w·r, Σ w·g, Σ w·b.
     pub contrib: [f32; 3],
@@ -18,12 +19,27 @@ pub struct Pixel {
     pub second_weight: f32,
 }
 
+// SAFETY: `#[repr(C)]`, eight `f32` and no padding (32 bytes, asserted
+// below); every bit pattern is an `f32`.
+unsafe impl bytemuck::Zeroable for Pixel {}
+// SAFETY: as above; `Pixel` is `Copy` and holds no references.
+unsafe impl bytemuck::Pod for Pixel {}
+const _: () = assert!(std::mem::size_of::<Pixel>() == 32);
+
 impl Pixel {
     /// The eight sums in wire order: contrib, weight, second-half contrib and weight.
     pub fn to_array(&self) -> [f32; 8] {
         let [r, g, b] = self.contrib;
         let [or, og, ob] = self.second_contrib;
         [r, g, b, self.weight, or, og, ob, self.second_weight]
+    }
+
+    /// `pixels` as their sums' little-endian bytes in wire order
+    /// ([`Pixel::to_array`], pixel after pixel) without a copy: on a
+    /// little-endian host, where `#[repr(C)]` lays them out so; `None`
+    /// elsewhere.
+    pub fn wire_bytes(pixels: &[Pixel]) -> Option<&[u8]> {
+        cfg!(target_endian = "little").then(|| bytemuck::cast_slice(pixels))
     }
 
     /// The pixel's value as the image shows it: see [`resolve`].
@@ -126,6 +142,21 @@ mod tests {
             t.add(p, Spectrum::new(v, v / 3.0, 0.7), 0.3 + v, (p.x + p.y) % 2 == 0);
         }
         t
+    }
+
+    #[test]
+    fn wire_bytes_are_the_sums_in_wire_order() {
+        let t = tile(0, 0, 5, 3, 1.7);
+        let mut expected = Vec::new();
+        for p in &t.pixels {
+            crate::le::extend_f32s(&mut expected, &p.to_array());
+        }
+        let bytes = Pixel::wire_bytes(&t.pixels);
+        if cfg!(target_endian = "little") {
+            assert_eq!(bytes, Some(expected.as_slice()));
+        } else {
+            assert_eq!(bytes, None);
+        }
     }
 
     #[test]

@@ -116,8 +116,8 @@ pub enum Command {
         n: u32,
     },
     /// A tile's result was accepted: the film's own tile, shared, so the
-    /// event loop neither copies nor encodes it; the writer encodes it
-    /// ([`encode_tile_into`]) straight before appending it to the log.
+    /// event loop neither copies nor encodes it; the writer frames its
+    /// record straight from its pixels ([`encode_tile_parts`]).
     Merged {
         /// The job.
         job: u64,
@@ -238,6 +238,32 @@ pub fn encode_tile(tile: &FilmTile, stats: &RayStats) -> Vec<u8> {
     out
 }
 
+/// [`encode_tile`] as the pieces that follow each other, so that the
+/// writer frames a tile's record straight from its pixels: `head` and
+/// `tail` (cleared first) hold the pixels' bounds and count and the stats,
+/// and the pixels are their own bytes ([`Pixel::wire_bytes`]; on a
+/// big-endian host `head` holds the whole encoding and the rest are empty).
+/// A tile's 8 KB then goes to its log in one copy, not two.
+///
+/// [`Pixel::wire_bytes`]: farm_common::film::Pixel::wire_bytes
+pub fn encode_tile_parts<'a>(
+    tile: &'a FilmTile,
+    stats: &RayStats,
+    head: &'a mut Vec<u8>,
+    tail: &'a mut Vec<u8>,
+) -> [&'a [u8]; 3] {
+    let Some(pixels) = farm_common::film::Pixel::wire_bytes(&tile.pixels) else {
+        encode_tile_into(head, tile, stats);
+        return [head.as_slice(), &[], &[]];
+    };
+    head.clear();
+    tail.clear();
+    let counted = (&tile.pixel_bounds, tile.pixels.len() as u64);
+    *head = postcard::to_extend(&counted, std::mem::take(head)).unwrap_or_default();
+    *tail = postcard::to_extend(stats, std::mem::take(tail)).unwrap_or_default();
+    [head.as_slice(), pixels, tail.as_slice()]
+}
+
 /// [`encode_tile`] into `out`, cleared first: the writer keeps one buffer
 /// for every tile.
 pub fn encode_tile_into(out: &mut Vec<u8>, tile: &FilmTile, stats: &RayStats) {
@@ -284,7 +310,7 @@ impl Journal {
             restored.jobs.iter().filter(|j| j.ending.is_some()).map(|j| j.id).collect();
         images.remove_all_but(&ended);
         let (tx, rx) = mpsc::channel();
-        let files = Files { logs, images, encoded: Vec::new() };
+        let files = Files { logs, images, around: (Vec::new(), Vec::new()) };
         let commits = Arc::new(AtomicUsize::new(0));
         let counted = commits.clone();
         std::thread::Builder::new()

@@ -16,9 +16,15 @@ pub(super) const MAX_RECORD: u32 = 64 << 20;
 /// Writes one record: `key` and `data`, framed; refuses `data` longer
 /// than a record may be (it could not be read back).
 pub(super) fn write(w: &mut impl Write, key: u32, data: &[u8]) -> std::io::Result<()> {
-    let len = u32::try_from(data.len())
-        .ok()
-        .and_then(|n| n.checked_add(4))
+    write_parts(w, key, &[data])
+}
+
+/// [`write`] of the record whose bytes are `parts` one after the other,
+/// without joining them first.
+pub(super) fn write_parts(w: &mut impl Write, key: u32, parts: &[&[u8]]) -> std::io::Result<()> {
+    let len = parts
+        .iter()
+        .try_fold(4u32, |n, p| u32::try_from(p.len()).ok().and_then(|l| n.checked_add(l)))
         .filter(|&len| len <= MAX_RECORD)
         .ok_or_else(|| {
             std::io::Error::new(
@@ -28,10 +34,15 @@ pub(super) fn write(w: &mut impl Write, key: u32, data: &[u8]) -> std::io::Resul
         })?;
     let mut crc = crc32fast::Hasher::new();
     crc.update(&key.to_le_bytes());
-    crc.update(data);
+    for p in parts {
+        crc.update(p);
+    }
     let head = [len.to_le_bytes(), crc.finalize().to_le_bytes(), key.to_le_bytes()];
     w.write_all(head.as_flattened())?;
-    w.write_all(data)
+    for p in parts {
+        w.write_all(p)?;
+    }
+    Ok(())
 }
 
 /// What [`read`] found.

@@ -364,6 +364,10 @@ fn a_tile_is_encoded_as_postcard_encodes_it() {
         assert_eq!(ours, postcard::to_stdvec(&(&tile, &stats)).unwrap(), "{bounds:?}");
         encode_tile_into(&mut reused, &tile, &stats);
         assert_eq!(reused, ours, "{bounds:?} into a used buffer");
+        // The pieces the writer frames a record from, in used buffers too.
+        let (mut head, mut tail) = (reused.clone(), reused.clone());
+        let parts = encode_tile_parts(&tile, &stats, &mut head, &mut tail);
+        assert_eq!(parts.concat(), ours, "{bounds:?} in pieces");
         let (back, s): (FilmTile, RayStats) = postcard::from_bytes(&ours).unwrap();
         assert_eq!((back.pixel_bounds, s), (tile.pixel_bounds, stats));
         let bits = |t: &FilmTile| -> Vec<u32> {

@@ -169,8 +169,9 @@ impl TileLogs {
         self.dir.is_some()
     }
 
-    /// Appends tile `key` of `job` (buffered until [`TileLogs::flush`]).
-    pub fn append(&mut self, job: u64, key: u32, data: &[u8]) {
+    /// Appends tile `key` of `job`, whose record's bytes are `parts` one
+    /// after the other (buffered until [`TileLogs::flush`]).
+    pub fn append(&mut self, job: u64, key: u32, parts: &[&[u8]]) {
         let Some(dir) = &self.dir else { return };
         let w = match self.open.entry(job) {
             std::collections::hash_map::Entry::Occupied(e) => e.into_mut(),
@@ -184,7 +185,7 @@ impl TileLogs {
                 }
             }
         };
-        let written = records::write(w, key, data);
+        let written = records::write_parts(w, key, parts);
         if let Err(e) = written {
             error!(job, error = %e, "cannot write the job's tile log: this tile is not durable");
         }
@@ -317,10 +318,10 @@ mod tests {
         let tmp = scratch("kept");
         let dir = tmp.path();
         let mut l = logs(dir);
-        l.append(7, 3, b"three");
-        l.append(7, 1, b"one");
-        l.append(8, 1, b"other job");
-        l.append(7, 3, b"three again");
+        l.append(7, 3, &[b"three"]);
+        l.append(7, 1, &[b"o", b"ne"]);
+        l.append(8, 1, &[b"other job"]);
+        l.append(7, 3, &[b"three", b"", b" again"]);
         l.flush();
         drop(l);
         let l = logs(dir);
@@ -336,8 +337,8 @@ mod tests {
         let tmp = scratch("torn");
         let dir = tmp.path();
         let mut l = logs(dir);
-        l.append(1, 0, &[5; 100]);
-        l.append(1, 1, &[6; 100]);
+        l.append(1, 0, &[&[5; 100]]);
+        l.append(1, 1, &[&[6; 100]]);
         l.flush();
         drop(l);
         let path = dir.join("1.log");
@@ -347,7 +348,7 @@ mod tests {
         std::fs::write(&path, &full[..MAGIC.len() + 112 + 62]).unwrap();
         let mut l = logs(dir);
         assert_eq!(l.read(1).keys().copied().collect::<Vec<_>>(), [0]);
-        l.append(1, 2, &[7; 10]);
+        l.append(1, 2, &[&[7; 10]]);
         l.flush();
         assert_eq!(l.read(1).keys().copied().collect::<Vec<_>>(), [0, 2]);
         // A flipped bit in the payload fails the check: that record and
@@ -395,7 +396,7 @@ mod tests {
         let mut expect = BTreeMap::new();
         for batch in batches() {
             for (key, data) in batch {
-                l.append(1, key, &data);
+                l.append(1, key, &[&data]);
                 expect.insert(key, data);
             }
             l.flush();
@@ -421,7 +422,7 @@ mod tests {
         drop(l);
         let mut l = logs(dir);
         assert_eq!(l.read(1), expect);
-        l.append(1, 7, b"after a restart");
+        l.append(1, 7, &[b"after a restart"]);
         l.flush();
         assert!(matches!(l.open[&1], Log::Cached(_)));
         expect.insert(7, b"after a restart".to_vec());
@@ -450,7 +451,7 @@ mod tests {
                     d.replace_file(read_only);
                 }
                 for (key, data) in batch {
-                    l.append(job, key, &data);
+                    l.append(job, key, &[&data]);
                     expect.insert(key, data);
                 }
                 l.flush();
@@ -475,7 +476,7 @@ mod tests {
         let dir = tmp.path();
         let mut l = logs(dir);
         for job in [1, 2, 3] {
-            l.append(job, 0, b"x");
+            l.append(job, 0, &[b"x"]);
         }
         l.flush();
         l.remove(2);
@@ -485,7 +486,7 @@ mod tests {
         assert_eq!(l.read(3).len(), 1);
         // In memory, nothing is kept and nothing fails.
         let mut m = TileLogs::open(None).unwrap();
-        m.append(1, 0, b"x");
+        m.append(1, 0, &[b"x"]);
         m.flush();
         assert!(m.read(1).is_empty());
     }

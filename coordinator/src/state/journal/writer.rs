@@ -3,7 +3,7 @@
 
 use super::images::Images;
 use super::tiles::TileLogs;
-use super::{encode_tile_into, unix_now, Command, Ending};
+use super::{encode_tile_parts, unix_now, Command, Ending};
 use crate::scheduler::JobUpdate;
 use crate::server::events::job_events;
 use farm_proto::convert::Hash;
@@ -18,8 +18,10 @@ use tracing::{debug, error};
 pub(super) struct Files {
     pub(super) logs: TileLogs,
     pub(super) images: Images,
-    /// Each tile is encoded here, into this one buffer, then appended.
-    pub(super) encoded: Vec<u8>,
+    /// A tile's record is framed from the bytes before its pixels, the
+    /// pixels' own and the bytes after them ([`encode_tile_parts`]): the
+    /// first and last are made here, in these two buffers.
+    pub(super) around: (Vec<u8>, Vec<u8>),
 }
 
 /// What a batch leaves to do once it is committed.
@@ -110,7 +112,7 @@ fn apply(
     c: Command,
     after: &mut After,
 ) -> rusqlite::Result<()> {
-    let Files { logs, images, encoded } = files;
+    let Files { logs, images, around } = files;
     match c {
         Command::Submitted { id, spec, detach, blobs } => {
             let bytes = postcard::to_stdvec(&*spec).unwrap_or_default();
@@ -154,8 +156,8 @@ fn apply(
             .execute(params![job as i64, tile, n])?;
         }
         Command::Merged { job, tile, film_tile, stats } if logs.keeps() => {
-            encode_tile_into(encoded, &film_tile, &stats);
-            logs.append(job, tile, encoded);
+            let (head, tail) = around;
+            logs.append(job, tile, &encode_tile_parts(&film_tile, &stats, head, tail));
         }
         Command::Merged { .. } => {}
         Command::Ended { job, ending, image } => {
