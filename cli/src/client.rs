@@ -319,7 +319,9 @@ fn transient(e: &Error) -> bool {
 
 /// Follows `job` to its image, reconnecting with backoff whenever the
 /// coordinator goes away (it restarts, or the network fails) for up to
-/// `reconnect_for` without hearing from it.
+/// `reconnect_for` without hearing from it. While the coordinator refuses
+/// the watch because the token has every slot taken, it waits, for as
+/// long as that lasts (the job renders meanwhile).
 pub async fn follow(
     remote: &Remote,
     job: u64,
@@ -378,6 +380,7 @@ pub async fn follow_live(
             }
             Err(e) if transient(&e) && last_heard.elapsed() < reconnect_for => {
                 tracing::warn!(job, error = %e, "lost the coordinator; reconnecting");
+                waiting = false;
                 tokio::time::sleep(backoff).await;
                 backoff = (backoff * 2).min(std::time::Duration::from_secs(5));
             }
@@ -388,15 +391,16 @@ pub async fn follow_live(
 
 /// How long a client refused a watch slot waits before it asks again:
 /// well inside the coordinator's grace for a job's client
-/// (`ServerConfig::client_grace`, 120 s), which each refusal starts again.
+/// (`--client-grace`, default 120 s), which each refusal starts again; a
+/// grace not much longer than this can still cancel a waiting client's job.
 const WATCH_SLOT_WAIT: std::time::Duration = std::time::Duration::from_millis(500);
 
-/// Whether `e` is the coordinator refusing a watch because the token
-/// already has as many open as it may (`MAX_WATCHES_PER_TOKEN`): another
-/// of its clients will close one, so this one waits rather than fail, as
-/// when more frames or scenes are submitted at once than that.
+/// Whether `e` is the coordinator refusing to open a watch because the
+/// token already has as many open as it may (`MAX_WATCHES_PER_TOKEN`):
+/// another of its clients will close one, so this one waits rather than
+/// fail, as when more frames or scenes are submitted at once than that.
 fn no_watch_slot(e: &Error) -> bool {
-    matches!(e, Error::Rpc(s) if s.code() == tonic::Code::ResourceExhausted)
+    matches!(e, Error::NoWatchSlot(_))
 }
 
 /// One WatchJob stream, to the image, a failure, or a broken stream.
@@ -408,8 +412,12 @@ async fn watch_once(
     mut display: Option<&mut LiveDisplay>,
 ) -> Result<JobImage, Error> {
     let live = display.is_some();
-    let mut events =
-        client.watch_job(v1::WatchJobRequest { job_id: job, live }).await?.into_inner();
+    let mut events = match client.watch_job(v1::WatchJobRequest { job_id: job, live }).await {
+        Ok(events) => events.into_inner(),
+        // Only the opening of the stream is refused for its slot.
+        Err(s) if s.code() == tonic::Code::ResourceExhausted => return Err(Error::NoWatchSlot(s)),
+        Err(s) => return Err(s.into()),
+    };
     let mut assembler = ImageAssembler::default();
     while let Some(ev) = events.message().await? {
         *last_heard = Instant::now();

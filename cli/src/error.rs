@@ -47,6 +47,10 @@ pub enum Error {
     /// The coordinator refused or failed a call.
     #[error("the coordinator says: {}", .0.message())]
     Rpc(#[from] tonic::Status),
+    /// The coordinator refused to open a watch of the job because the
+    /// token has as many open as it may (`MAX_WATCHES_PER_TOKEN`).
+    #[error("the coordinator says: {}", .0.message())]
+    NoWatchSlot(tonic::Status),
     /// The job failed on the farm.
     #[error("the job failed: {0}")]
     JobFailed(String),

@@ -394,14 +394,17 @@ async fn a_job_whose_client_went_away_is_cancelled_unless_detached() {
 
 /// A client whose token already has every watch it may open waits for a
 /// slot instead of failing, and its job is not cancelled as left
-/// meanwhile: 17 scenes submitted at once with one token all render. (It
-/// used to fail with "this client already has 16 job watches open".)
+/// meanwhile, so more scenes than that submitted at once with one token
+/// all render (`farm submit` used to fail with "this client already has 16
+/// job watches open"); a job that does not exist is said so at once.
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn a_client_refused_a_watch_slot_waits_for_one_and_keeps_its_job() {
     use farm_coordinator::server::MAX_WATCHES_PER_TOKEN;
     let mut config =
         farm_coordinator::server::ServerConfig::with_heartbeat(Duration::from_millis(100));
-    config.client_grace = Duration::from_millis(600);
+    // Three of the client's retries long, so that the test does not hang
+    // on the scheduling of one.
+    config.client_grace = Duration::from_millis(1500);
     // No workers yet: every job stays queued while the slots are taken.
     let mut cluster = TestCluster::start_config(0, config).await;
     let remote = client::Remote::insecure(&cluster.url);
@@ -424,8 +427,17 @@ async fn a_client_refused_a_watch_slot_waits_for_one_and_keeps_its_job() {
             client::follow(&remote, job, None, Duration::from_secs(30), |_| {}).await
         })
     };
+    // With every slot taken, a job that does not exist is not waited for.
+    let missing = tokio::time::timeout(
+        Duration::from_secs(10),
+        client::follow(&remote, job + 1000, None, Duration::from_secs(30), |_| {}),
+    )
+    .await
+    .expect("an answer, not a wait");
+    let e = missing.expect_err("no such job");
+    assert!(e.to_string().contains("no job"), "{e}");
     // Well past the grace period, the waiting client's job is still there.
-    tokio::time::sleep(Duration::from_millis(2000)).await;
+    tokio::time::sleep(Duration::from_millis(4000)).await;
     assert!(!following.is_finished(), "the client gave up: {:?}", following.await);
     let status = client::status(&remote).await.expect("status");
     let state = status.jobs.iter().find(|j| j.job_id == job).expect("job").state.clone();

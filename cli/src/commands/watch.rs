@@ -38,17 +38,25 @@ pub async fn run(args: WatchArgs) -> ExitCode {
     let bar = crate::progress::progress_bar(args.quiet);
     let job = args.job;
     let reconnect = super::submit::reconnect_for(args.reconnect_for);
+    // With a display server, the connection that asks for the job's name
+    // goes on to follow it; a coordinator out of reach is left to
+    // `follow_live`'s reconnecting.
+    let mut client = None;
     let mut display = match args.display_server.as_deref() {
         Some(a) => {
-            let title = scene_name(&submitted_name(&remote, job).await, job);
-            Some(crate::display::LiveDisplay::new(a, &title, args.quiet))
+            client = crate::client::connect(&remote).await.ok();
+            let name = match client.as_mut() {
+                Some(c) => submitted_name(c, job).await,
+                None => String::new(),
+            };
+            Some(crate::display::LiveDisplay::new(a, &scene_name(&name, job), args.quiet))
         }
         None => None,
     };
     let result = crate::client::follow_live(
         &remote,
         job,
-        None,
+        client,
         reconnect,
         |p| super::submit::show_progress(&bar, job, p),
         display.as_mut(),
@@ -93,9 +101,12 @@ pub async fn run(args: WatchArgs) -> ExitCode {
 /// display server's title before the image (which carries it too)
 /// arrives; empty if the status does not list it, or cannot be had
 /// (following the job reports why).
-async fn submitted_name(remote: &crate::client::Remote, job: u64) -> String {
-    let Ok(status) = crate::client::status(remote).await else { return String::new() };
-    status.jobs.into_iter().find(|j| j.job_id == job).map(|j| j.name).unwrap_or_default()
+async fn submitted_name(client: &mut farm_proto::connect::Client, job: u64) -> String {
+    let Ok(status) = client.get_status(farm_proto::v1::GetStatusRequest {}).await else {
+        return String::new();
+    };
+    let jobs = status.into_inner().jobs;
+    jobs.into_iter().find(|j| j.job_id == job).map(|j| j.name).unwrap_or_default()
 }
 
 /// The scene name the written image carries: the job's as submitted, or

@@ -19,12 +19,17 @@ pub struct Pixel {
     pub second_weight: f32,
 }
 
-// SAFETY: `#[repr(C)]`, eight `f32` and no padding (32 bytes, asserted
-// below); every bit pattern is an `f32`.
+// SAFETY: `#[repr(C)]`, eight `f32` in wire order and no padding (sizes
+// and offsets asserted below); every bit pattern is an `f32`.
 unsafe impl bytemuck::Zeroable for Pixel {}
 // SAFETY: as above; `Pixel` is `Copy` and holds no references.
 unsafe impl bytemuck::Pod for Pixel {}
-const _: () = assert!(std::mem::size_of::<Pixel>() == 32);
+const _: () = assert!(
+    std::mem::size_of::<Pixel>() == 32
+        && std::mem::offset_of!(Pixel, weight) == 12
+        && std::mem::offset_of!(Pixel, second_contrib) == 16
+        && std::mem::offset_of!(Pixel, second_weight) == 28
+);
 
 impl Pixel {
     /// The eight sums in wire order: contrib, weight, second-half contrib and weight.

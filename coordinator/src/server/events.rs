@@ -70,12 +70,14 @@ pub enum Event {
         /// Whether the job exists.
         reply: oneshot::Sender<bool>,
     },
-    /// Its client asked to watch a job it owns and was refused for
+    /// A client asked to watch a job it may watch and was refused for
     /// having too many watches open: it is still there, waiting for a
     /// slot, so the job is not cancelled as unwatched meanwhile.
     WatchWaiting {
         /// The job.
         job: JobId,
+        /// Whether the job exists.
+        reply: oneshot::Sender<bool>,
     },
     /// `farm status`.
     Status {
@@ -246,9 +248,10 @@ pub async fn run(mut rx: EventRx, config: ServerConfig, state: LoopState) {
                 };
                 let _ = reply.send(id);
             }
-            Event::WatchWaiting { job } => {
+            Event::WatchWaiting { job, reply } => {
                 // The grace period starts again at the next tick.
                 unwatched.remove(&job);
+                let _ = reply.send(sched.owner(job).is_some());
             }
             Event::Watch { job, tx, live, reply } => match sched.snapshot(job) {
                 Some(Snapshot::Stored) => {

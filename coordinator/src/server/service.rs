@@ -22,7 +22,7 @@ use tokio::sync::{mpsc, oneshot};
 use tokio_stream::wrappers::{ReceiverStream, UnboundedReceiverStream};
 use tokio_stream::{Stream, StreamExt};
 use tonic::{Request, Response, Status, Streaming};
-use tracing::{info, warn};
+use tracing::{debug, info, warn};
 
 /// Bytes per `FetchBlob` chunk: smaller than uploads' chunks, since what a
 /// stalled reader pins in memory is a few of them.
@@ -362,18 +362,31 @@ impl Coordinator for CoordinatorService {
         let r = req.into_inner();
         let job = JobId(r.job_id);
         self.check_owner(&by, job).await?;
-        let mut slot = {
+        let slot = {
             let mut m = self.watches.lock().unwrap_or_else(|p| p.into_inner());
             let n = m.entry(by.id.clone()).or_default();
-            if *n >= MAX_WATCHES_PER_TOKEN {
-                warn!(token = %by.id, "watch refused: too many open");
-                // Its client waits for a slot (`farm_cli::client::follow`)
-                // and asks again: its job must not be cancelled as left.
-                let _ = self.send(Event::WatchWaiting { job });
-                return Err(Error::TooManyWatches(MAX_WATCHES_PER_TOKEN).into());
+            (*n < MAX_WATCHES_PER_TOKEN).then(|| {
+                *n += 1;
+                Watched {
+                    inner: None,
+                    live: None,
+                    slots: self.watches.clone(),
+                    token: by.id.clone(),
+                }
+            })
+        };
+        let Some(mut slot) = slot else {
+            // Its client waits for a slot (`farm_cli::client::follow`) and
+            // asks again, twice a second: no warning each time. Its job
+            // must not be cancelled as left meanwhile, and a job that does
+            // not exist is said so, not waited for.
+            debug!(token = %by.id, job = job.0, "watch refused: too many open");
+            let (reply, known) = oneshot::channel();
+            self.send(Event::WatchWaiting { job, reply })?;
+            if !answer(known).await? {
+                return Err(Error::NoJob(job.0).into());
             }
-            *n += 1;
-            Watched { inner: None, live: None, slots: self.watches.clone(), token: by.id.clone() }
+            return Err(Error::TooManyWatches(MAX_WATCHES_PER_TOKEN).into());
         };
         let (tx, rx) = mpsc::unbounded_channel();
         // One preview waiting at most: the loop sends the next only once

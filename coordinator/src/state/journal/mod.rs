@@ -264,8 +264,8 @@ pub fn encode_tile_parts<'a>(
     [head.as_slice(), pixels, tail.as_slice()]
 }
 
-/// [`encode_tile`] into `out`, cleared first: the writer keeps one buffer
-/// for every tile.
+/// [`encode_tile`] into `out`, cleared first (the writer's encoding on a
+/// big-endian host, [`encode_tile_parts`]).
 pub fn encode_tile_into(out: &mut Vec<u8>, tile: &FilmTile, stats: &RayStats) {
     const PIXEL: usize = std::mem::size_of::<[f32; 8]>();
     out.clear();

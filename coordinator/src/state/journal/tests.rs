@@ -338,7 +338,7 @@ async fn tiles_coming_in_fast_are_committed_together() {
 fn a_tile_is_encoded_as_postcard_encodes_it() {
     use farm_common::film::FilmTile;
     let mut rng = farm_common::rng::Rng::new(7);
-    // The writer's one buffer, reused from tile to tile, larger ones first.
+    // One buffer reused from tile to tile, larger ones first.
     let mut reused = Vec::new();
     for (x0, y0, w, h) in [(0, 0, 16, 16), (-3, -40, 5, 1), (1000, 7, 0, 0), (2, 3, 13, 7)] {
         let bounds = Bounds2i::new(Point2i::new(x0, y0), Point2i::new(x0 + w, y0 + h));
