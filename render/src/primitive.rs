@@ -65,12 +65,21 @@ pub struct Aggregate {
 }
 
 /// From this many primitives up, an aggregate's triangles share BVH leaves
-/// of up to `maxnodeprims` (see [`Bvh::build_over`]): a quarter of the
-/// nodes, which is most of a large mesh's memory, for about the same speed
-/// on dense meshes. Below it the tree is pbrt-v3's as built, whose box per
+/// of up to `maxnodeprims` (see [`Bvh::build_over`]): about a quarter of
+/// the nodes. Below it the tree is pbrt-v3's as built, whose box per
 /// triangle spares tests of large triangles (13% fewer instructions on
-/// cornell-box, 18% on veach-mis).
-pub const SHARED_LEAVES_FROM: usize = 1 << 18;
+/// cornell-box, 18% on veach-mis). The trade turns where the tree of a box
+/// per triangle outgrows the caches. On the kernel bench's torus
+/// (`FARM_DUMP_DIR`, its segments varied; ns a ray, a box a triangle →
+/// shared leaves, two alternating pairs, bare walk):
+/// - 16k and 33k triangles were level (camera rays 149/144 → 147/145 and
+///   159/160 → 159/164);
+/// - 51k mostly gained (shadow rays 340/336 → 290/311; camera rays
+///   163/161 → 149/168);
+/// - 66k gained 10–20% and 100k 13–17% (shadow rays 404/407 → 357/370).
+///
+/// The shared scenes render the same bits either way.
+pub const SHARED_LEAVES_FROM: usize = 1 << 15;
 
 impl Aggregate {
     /// Builds the BVH, with at most `max_prims` primitives in a leaf, and
