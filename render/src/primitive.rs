@@ -2,9 +2,9 @@
 //! them behind a BVH; object instances place a shared aggregate with a
 //! transform (pbrt-v3 `GeometricPrimitive`, `TransformedPrimitive`, `BVHAccel`).
 
-use crate::accel::Bvh;
+use crate::accel::{any_in_leaf, closest_in_leaf, Bvh};
 use crate::interaction::SurfaceInteraction;
-use crate::shapes::{Shape, TriRay, Triangle};
+use crate::shapes::{triangle4, Shape, TriRay, Triangle};
 use farm_common::geometry::{AnimatedTransform, Bounds3f, Ray, Transform};
 use std::sync::Arc;
 
@@ -128,24 +128,40 @@ impl Aggregate {
         // its barycentrics; other shapes build theirs as they are hit.
         let mut best: Option<(f32, usize, Option<[f32; 3]>)> = None;
         let tr = TriRay::new(ray);
-        self.bvh.intersect(
+        self.bvh.intersect_leaves(
             ray,
             // Inlined into each compiled form of the walk (SSE, AVX).
             #[inline(always)]
-            |i, r| {
-                let (t, barycentrics) = match &self.prims[i].shape {
-                    Shape::Triangle { mesh, v } => {
-                        let (t, b) =
-                            Triangle { mesh, v: *v }.hit_barycentrics_prepared(r, &tr, true)?;
-                        (t, Some(b))
+            |prims, r| {
+                // A leaf of three or four triangles at once, each lane
+                // accepted in turn as the loop below would: the same hits.
+                if prims.len() > 2 {
+                    if let Some(q) = triangle4::test(&self.prims[prims.clone()], r, &tr, false) {
+                        return q.accept(r, |k| {
+                            best = Some((q.t[k], prims.start + k, Some(q.barycentrics(k))));
+                        });
                     }
-                    shape => {
-                        let t = shape.intersect_into(r, si)?;
-                        (t, None)
-                    }
-                };
-                best = Some((t, i, barycentrics));
-                Some(t)
+                }
+                closest_in_leaf(
+                    prims,
+                    r,
+                    #[inline(always)]
+                    |i: usize, r: &Ray| {
+                        let (t, barycentrics) = match &self.prims[i].shape {
+                            Shape::Triangle { mesh, v } => {
+                                let (t, b) = Triangle { mesh, v: *v }
+                                    .hit_barycentrics_prepared(r, &tr, true)?;
+                                (t, Some(b))
+                            }
+                            shape => {
+                                let t = shape.intersect_into(r, si)?;
+                                (t, None)
+                            }
+                        };
+                        best = Some((t, i, barycentrics));
+                        Some(t)
+                    },
+                )
             },
         );
         let (t, i, barycentrics) = best?;
@@ -171,10 +187,21 @@ impl Aggregate {
     #[inline(always)]
     pub fn intersect_p(&self, ray: &Ray) -> bool {
         let tr = TriRay::new(ray);
-        self.bvh.intersect_any(
+        self.bvh.intersect_any_leaves(
             ray,
             #[inline(always)]
-            |i, r| self.prims[i].shape.intersect_p_prepared(r, &tr),
+            |prims, r| match (prims.len() > 2)
+                .then(|| triangle4::test(&self.prims[prims.clone()], r, &tr, true))
+                .flatten()
+            {
+                Some(q) => q.mask != 0,
+                None => any_in_leaf(
+                    prims,
+                    r,
+                    #[inline(always)]
+                    |i: usize, r: &Ray| self.prims[i].shape.intersect_p_prepared(r, &tr),
+                ),
+            },
         )
     }
 }

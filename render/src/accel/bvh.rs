@@ -115,10 +115,10 @@ fn build_binary(info: &mut [PrimInfo], max_prims_in_node: usize) -> Vec<LinearNo
 /// Tests a leaf's primitives `prims` for the closest hit, shortening
 /// `ray` to each hit; returns whether any was hit.
 #[inline(always)]
-fn closest_in_leaf<F: FnMut(usize, &Ray) -> Option<f32>>(
+pub fn closest_in_leaf<F: FnMut(usize, &Ray) -> Option<f32>>(
     prims: std::ops::Range<usize>,
     ray: &mut Ray,
-    f: &mut F,
+    mut f: F,
 ) -> bool {
     let mut hit = false;
     for i in prims {
@@ -142,10 +142,10 @@ thread_local! {
 /// `any` went through an iterator adaptor that was not inlined, a call
 /// for every leaf.
 #[inline(always)]
-fn any_in_leaf<F: FnMut(usize, &Ray) -> bool>(
+pub fn any_in_leaf<F: FnMut(usize, &Ray) -> bool>(
     prims: std::ops::Range<usize>,
     ray: &Ray,
-    f: &mut F,
+    mut f: F,
 ) -> bool {
     for i in prims {
         if f(i, ray) {
@@ -289,7 +289,24 @@ impl Bvh {
     /// which the ray passed on is shortened to `t`. Returns whether
     /// anything was hit; the caller's closure keeps the hit itself.
     #[inline]
-    pub fn intersect<F: FnMut(usize, &Ray) -> Option<f32>>(&self, ray: &Ray, f: F) -> bool {
+    pub fn intersect<F: FnMut(usize, &Ray) -> Option<f32>>(&self, ray: &Ray, mut f: F) -> bool {
+        self.intersect_leaves(
+            ray,
+            #[inline(always)]
+            |prims, r| closest_in_leaf(prims, r, &mut f),
+        )
+    }
+
+    /// [`Bvh::intersect`] a leaf at a time: `leaf(prims, ray)` tests the
+    /// primitives `prims` (in build order) as [`Bvh::intersect`] tests them
+    /// one by one, shortening `ray` to each hit, and returns whether any
+    /// was hit. For tests that take a leaf's primitives together.
+    #[inline]
+    pub fn intersect_leaves<L: FnMut(std::ops::Range<usize>, &mut Ray) -> bool>(
+        &self,
+        ray: &Ray,
+        f: L,
+    ) -> bool {
         if self.nodes.is_empty() {
             return false;
         }
@@ -316,7 +333,11 @@ impl Bvh {
     /// no stack. The order is [`Bvh::closest`]'s, ties included (the higher
     /// lane first), so the hits are the same.
     #[inline(always)]
-    fn closest_one_node<F: FnMut(usize, &Ray) -> Option<f32>>(&self, ray: &Ray, mut f: F) -> bool {
+    fn closest_one_node<L: FnMut(std::ops::Range<usize>, &mut Ray) -> bool>(
+        &self,
+        ray: &Ray,
+        mut leaf: L,
+    ) -> bool {
         let node = &self.nodes[0];
         let mut shortened = *ray;
         let mut hit = false;
@@ -335,7 +356,7 @@ impl Bvh {
             if t[l] >= shortened.t_max {
                 break;
             }
-            hit |= closest_in_leaf(node.prims(l), &mut shortened, &mut f);
+            hit |= leaf(node.prims(l), &mut shortened);
         }
         hit
     }
@@ -343,14 +364,22 @@ impl Bvh {
     /// [`Bvh::closest`] for a deep tree, not inlined: its stack would
     /// take the caller's frame past the size that makes it probe pages.
     #[inline(never)]
-    fn closest_deep<F: FnMut(usize, &Ray) -> Option<f32>>(&self, ray: &Ray, f: F) -> bool {
+    fn closest_deep<L: FnMut(std::ops::Range<usize>, &mut Ray) -> bool>(
+        &self,
+        ray: &Ray,
+        f: L,
+    ) -> bool {
         self.closest::<_, WIDE_STACK_SIZE, _>(Inline::default(), ray, f)
     }
 
     /// [`Bvh::closest`] compiled for AVX, for a tree that is not deep.
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx")]
-    unsafe fn closest_avx<F: FnMut(usize, &Ray) -> Option<f32>>(&self, ray: &Ray, f: F) -> bool {
+    unsafe fn closest_avx<L: FnMut(std::ops::Range<usize>, &mut Ray) -> bool>(
+        &self,
+        ray: &Ray,
+        f: L,
+    ) -> bool {
         // SAFETY: the caller's contract: the CPU has AVX.
         self.closest::<_, SHALLOW_STACK_SIZE, _>(unsafe { Avx::new_unchecked() }, ray, f)
     }
@@ -358,11 +387,11 @@ impl Bvh {
     /// [`Bvh::intersect`]'s walk with the box test `T` and a stack of `N`
     /// entries, which the tree must not need more of.
     #[inline(always)]
-    fn closest<T: BoxTest, const N: usize, F: FnMut(usize, &Ray) -> Option<f32>>(
+    fn closest<T: BoxTest, const N: usize, L: FnMut(std::ops::Range<usize>, &mut Ray) -> bool>(
         &self,
         test: T,
         ray: &Ray,
-        mut f: F,
+        mut leaf: L,
     ) -> bool {
         let r = SlabRay::new(ray);
         let mut shortened = *ray;
@@ -380,11 +409,7 @@ impl Bvh {
             }
             let (child, count) = (entry as u32, (entry >> 32) as u32);
             if count > 0 {
-                hit |= closest_in_leaf(
-                    child as usize..(child + count) as usize,
-                    &mut shortened,
-                    &mut f,
-                );
+                hit |= leaf(child as usize..(child + count) as usize, &mut shortened);
                 continue;
             }
             let node = &self.nodes[child as usize];
@@ -425,7 +450,22 @@ impl Bvh {
     /// Any hit: like [`Bvh::intersect`] but stops at the first primitive
     /// for which `f` returns `true` (shadow rays), in no particular order.
     #[inline(always)]
-    pub fn intersect_any<F: FnMut(usize, &Ray) -> bool>(&self, ray: &Ray, f: F) -> bool {
+    pub fn intersect_any<F: FnMut(usize, &Ray) -> bool>(&self, ray: &Ray, mut f: F) -> bool {
+        self.intersect_any_leaves(
+            ray,
+            #[inline(always)]
+            |prims, r| any_in_leaf(prims, r, &mut f),
+        )
+    }
+
+    /// [`Bvh::intersect_any`] a leaf at a time: `leaf(prims, ray)` says
+    /// whether any of the primitives `prims` blocks `ray`.
+    #[inline(always)]
+    pub fn intersect_any_leaves<L: FnMut(std::ops::Range<usize>, &Ray) -> bool>(
+        &self,
+        ray: &Ray,
+        f: L,
+    ) -> bool {
         if self.nodes.is_empty() {
             return false;
         }
@@ -443,13 +483,17 @@ impl Bvh {
     /// [`Bvh::any`] on a tree of one node, whose children are all leaves:
     /// the leaves hit, in lane order as there, with no stack.
     #[inline(always)]
-    fn any_one_node<F: FnMut(usize, &Ray) -> bool>(&self, ray: &Ray, mut f: F) -> bool {
+    fn any_one_node<L: FnMut(std::ops::Range<usize>, &Ray) -> bool>(
+        &self,
+        ray: &Ray,
+        mut leaf: L,
+    ) -> bool {
         let node = &self.nodes[0];
         let (mut mask, _) = Inline::default().hit(node, &SlabRay::new(ray), ray.t_max);
         while mask != 0 {
             let l = mask.trailing_zeros() as usize;
             mask &= mask - 1;
-            if any_in_leaf(node.prims(l), ray, &mut f) {
+            if leaf(node.prims(l), ray) {
                 return true;
             }
         }
@@ -459,14 +503,23 @@ impl Bvh {
     /// [`Bvh::any`] compiled for AVX.
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx")]
-    unsafe fn any_avx<F: FnMut(usize, &Ray) -> bool>(&self, ray: &Ray, f: F) -> bool {
+    unsafe fn any_avx<L: FnMut(std::ops::Range<usize>, &Ray) -> bool>(
+        &self,
+        ray: &Ray,
+        f: L,
+    ) -> bool {
         // SAFETY: the caller's contract: the CPU has AVX.
         self.any(unsafe { Avx::new_unchecked() }, ray, f)
     }
 
     /// [`Bvh::intersect_any`]'s walk with the box test `T`.
     #[inline(always)]
-    fn any<T: BoxTest, F: FnMut(usize, &Ray) -> bool>(&self, test: T, ray: &Ray, mut f: F) -> bool {
+    fn any<T: BoxTest, L: FnMut(std::ops::Range<usize>, &Ray) -> bool>(
+        &self,
+        test: T,
+        ray: &Ray,
+        mut leaf: L,
+    ) -> bool {
         let r = SlabRay::new(ray);
         let mut stack: Stack<u32, WIDE_STACK_SIZE> = Stack::new();
         stack.push(0);
@@ -481,7 +534,7 @@ impl Bvh {
                     stack.push(node.child[l]);
                     continue;
                 }
-                if any_in_leaf(node.prims(l), ray, &mut f) {
+                if leaf(node.prims(l), ray) {
                     return true;
                 }
             }

@@ -6,7 +6,7 @@ mod collapse;
 mod node;
 mod sah;
 
-pub use bvh::{Bvh, DEFAULT_MAX_PRIMS_IN_NODE};
+pub use bvh::{any_in_leaf, closest_in_leaf, Bvh, DEFAULT_MAX_PRIMS_IN_NODE};
 pub use node::{detected_simd, force_simd, simd, Simd};
 
 use farm_common::scene::{Entity, Params, Warning};

@@ -114,9 +114,11 @@ fn a_one_node_tree_is_walked_in_the_general_order() {
                 seen.push(k);
                 ordered[k].hit(r)
             };
-            let a = bvh.closest_one_node(&ray, |k, r| test(&mut walked[0], k, r));
-            let b = bvh.closest::<_, WIDE_STACK_SIZE, _>(Inline::default(), &ray, |k, r| {
-                test(&mut walked[1], k, r)
+            let a = bvh.closest_one_node(&ray, |p, r| {
+                closest_in_leaf(p, r, |k, r| test(&mut walked[0], k, r))
+            });
+            let b = bvh.closest::<_, WIDE_STACK_SIZE, _>(Inline::default(), &ray, |p, r| {
+                closest_in_leaf(p, r, |k, r| test(&mut walked[1], k, r))
             });
             assert_eq!(a, b, "ray {i}");
             assert_eq!(walked[0], walked[1], "ray {i}, {n} primitives");
@@ -126,8 +128,11 @@ fn a_one_node_tree_is_walked_in_the_general_order() {
                 seen.push(k);
                 ordered[k].hit(r).is_some()
             };
-            let a = bvh.any_one_node(&ray, |k, r| test(&mut walked[0], k, r));
-            let b = bvh.any(Inline::default(), &ray, |k, r| test(&mut walked[1], k, r));
+            let a =
+                bvh.any_one_node(&ray, |p, r| any_in_leaf(p, r, |k, r| test(&mut walked[0], k, r)));
+            let b = bvh.any(Inline::default(), &ray, |p, r| {
+                any_in_leaf(p, r, |k, r| test(&mut walked[1], k, r))
+            });
             assert_eq!(a, b, "ray {i}");
             assert_eq!(walked[0], walked[1], "ray {i}, {n} primitives, any hit");
         }
@@ -166,7 +171,9 @@ fn the_stack_bound_holds() {
                 ray.d = -ray.o;
             }
             STACK_PEAK.with(|p| p.set(0));
-            bvh.closest::<_, WIDE_STACK_SIZE, _>(Inline::default(), &ray, |k, r| ordered[k].hit(r));
+            bvh.closest::<_, WIDE_STACK_SIZE, _>(Inline::default(), &ray, |p, r| {
+                closest_in_leaf(p, r, |k, r| ordered[k].hit(r))
+            });
             let peak = STACK_PEAK.with(|p| p.get());
             assert!(peak <= need, "{n} primitives: {peak} entries, bound {need}");
             most = most.max(peak);

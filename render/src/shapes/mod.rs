@@ -20,6 +20,7 @@ mod paraboloid;
 mod quadric_tests;
 mod sphere;
 mod triangle;
+pub mod triangle4;
 
 pub use cone::Cone;
 pub use create::{create, create_in};

@@ -111,6 +111,13 @@ impl TriRay {
         TriRay { kz, s: [-d.x / d.z, -d.y / d.z, 1.0 / d.z] }
     }
 
+    /// The axis that becomes z and the shear (`-d.x / d.z`, `-d.y / d.z`,
+    /// `1 / d.z` of the permuted direction), for the four-lane test.
+    #[inline(always)]
+    pub(super) fn parts(&self) -> (usize, [f32; 3]) {
+        (usize::from(self.kz), self.s)
+    }
+
     /// `v` with the axes (kz + 1, kz + 2, kz) mod 3 as (x, y, z). The same
     /// for every triangle a ray meets, so the branch is predicted.
     #[inline(always)]
