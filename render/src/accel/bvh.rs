@@ -23,7 +23,7 @@ use super::node::Avx;
 use super::node::{simd, BoxTest, Node, Simd, SlabRay, WIDTH};
 
 /// The box test of the walks compiled into their callers: SSE on x86-64
-/// (AVX is a walk of its own, see [`Bvh::intersect`]).
+/// (AVX is a walk of its own, see [`Bvh::intersect_leaves`]).
 #[cfg(target_arch = "x86_64")]
 type Inline = super::node::Sse;
 #[cfg(not(target_arch = "x86_64"))]
@@ -195,14 +195,16 @@ fn prefetch_node(nodes: &[Node], i: u32) {
 
 /// The hierarchy. It stores only nodes; the caller keeps the primitives in
 /// the order [`Bvh::build`] returns and tests them in the closures given to
-/// [`Bvh::intersect`] and [`Bvh::intersect_any`].
+/// [`Bvh::intersect`] and [`Bvh::intersect_any`] (a primitive at a time)
+/// or [`Bvh::intersect_leaves`] and [`Bvh::intersect_any_leaves`] (a leaf
+/// at a time).
 #[derive(Clone, Debug, Default)]
 pub struct Bvh {
     nodes: Vec<Node>,
     bounds: Bounds3f,
     /// The tree may need more than [`SHALLOW_STACK_SIZE`] stack entries.
     deep: bool,
-    /// Walk in AVX ([`Bvh::intersect`] says when): decided at the build,
+    /// Walk in AVX ([`Bvh::intersect_leaves`] says when): decided at the build,
     /// from [`simd`], so that a ray pays one test for it.
     #[cfg_attr(not(target_arch = "x86_64"), allow(dead_code))]
     avx: bool,

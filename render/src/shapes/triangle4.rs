@@ -1,8 +1,10 @@
 //! pbrt-v3's watertight ray–triangle test ([`Triangle`]'s) on the three or
 //! four triangles of a shared BVH leaf at once, in SSE, which every x86-64
 //! CPU has. Each lane does the scalar test's operations in its order (no
-//! fused multiply-adds; glam's `max_element` is `maxps`), so a lane's
-//! answer has the scalar test's bits, NaN included. The leaves it declines
+//! fused multiply-adds; glam's `max_element` is `maxps`; compares are the
+//! ordered ones, false for NaN as Rust's are), so a lane hits where the
+//! scalar test hits, with the same bits in every value that is not a NaN
+//! (whose payload Rust leaves unspecified). The leaves it declines
 //! ([`test`] returns `None`) go to the scalar test, triangle by triangle:
 //! a lane whose edge function is exactly zero (which the scalar test
 //! redoes in double precision), a mesh with an alpha mask, a shape that is
@@ -96,6 +98,10 @@ pub fn test(prims: &[Primitive], ray: &Ray, tr: &TriRay, shadow: bool) -> Option
     #[cfg(target_arch = "x86_64")]
     {
         if prims.len() < 3 || prims.len() > LANES {
+            return None;
+        }
+        #[cfg(test)]
+        if tests::SCALAR_ONLY.get() {
             return None;
         }
         // Vertex coordinates, [vertex · 3 + axis][lane]; lanes past the

@@ -2,8 +2,16 @@ use super::*;
 use crate::primitive::Primitive;
 use crate::shapes::{Triangle, TriangleMesh};
 use farm_common::geometry::{Ray, Vec3};
+use farm_common::math;
 use farm_common::rng::Rng;
+use std::cell::Cell;
 use std::sync::Arc;
+
+thread_local! {
+    /// Makes [`test`] decline every leaf, so that the aggregate's scalar
+    /// loop can be compared with its four lanes (tests only).
+    pub(super) static SCALAR_ONLY: Cell<bool> = const { Cell::new(false) };
+}
 
 /// Triangles `tris` (vertex triples) as one mesh's primitives.
 fn prims(tris: &[[Vec3; 3]]) -> (Arc<TriangleMesh>, Vec<Primitive>) {
@@ -40,7 +48,9 @@ fn agrees(tris: &[[Vec3; 3]], ray: &Ray) -> bool {
         let scalar = tri.hit_barycentrics_prepared(&shortened, &tr, false);
         let lane = (q.mask & 1 << k != 0 && q.within(k, shortened.t_max))
             .then(|| (q.t[k], q.barycentrics(k)));
-        let bits = |h: Option<(f32, [f32; 3])>| h.map(|(t, b)| (t.to_bits(), b.map(f32::to_bits)));
+        // A NaN's payload is left unspecified by Rust: NaN counts as NaN.
+        let canon = |x: f32| if x.is_nan() { u32::MAX } else { x.to_bits() };
+        let bits = |h: Option<(f32, [f32; 3])>| h.map(|(t, b)| (canon(t), b.map(canon)));
         assert_eq!(bits(lane), bits(scalar), "lane {k}: {tris:?} {ray:?}");
         if let Some((t, _)) = scalar {
             scalar_hits.push(k);
@@ -132,12 +142,16 @@ fn edge_cases_agree_or_fall_back() {
     assert!(agrees(&quad, &ray));
     let (_, p) = prims(&quad);
     assert_eq!(test(&p, &ray, &TriRay::new(&ray), false).unwrap().mask, 0b001);
-    // In the plane, grazing.
+    // In the plane, grazing: every sheared y is zero, and so is every edge
+    // function.
     let graze = Ray::new(Vec3::new(-1.0, 0.25, 0.0), Vec3::new(1.0, 0.1, 0.0), 0.0);
-    agrees(&quad, &graze);
+    assert!(!agrees(&quad, &graze));
+    // Two equal vertices: an edge function of exactly zero whatever the ray.
+    let down = Ray::new(Vec3::new(0.2, 0.2, 1.0), Vec3::new(0.01, 0.02, -1.0), 0.0);
+    assert!(!agrees(&[[a, a, b], [b, d, c], quad[2]], &down));
     let inf = f32::INFINITY;
+    let mut taken = 0;
     let odd = [
-        [a, a, b],
         [a, b, Vec3::new(2.0, 0.0, 0.0)],
         [a, b, Vec3::new(0.0, inf, 0.0)],
         [a, Vec3::new(f32::NAN, 0.0, 0.0), c],
@@ -148,10 +162,13 @@ fn edge_cases_agree_or_fall_back() {
             Ray::new(Vec3::new(0.2, 0.2, 1.0), Vec3::new(0.01, 0.02, -1.0), 0.0),
             Ray::new(Vec3::new(0.2, 0.2, -1.0), Vec3::new(0.0, 0.0, 1.0), 0.0),
         ] {
-            agrees(&[t, [b, d, c], quad[2]], &ray);
-            agrees(&[[b, d, c], t, quad[0], quad[2]], &ray);
+            taken += agrees(&[t, [b, d, c], quad[2]], &ray) as usize;
+            taken += agrees(&[[b, d, c], t, quad[0], quad[2]], &ray) as usize;
         }
     }
+    // Infinite, NaN and collinear lanes beside ordinary ones were decided
+    // by the four lanes, not all handed to the scalar test.
+    assert!(taken >= 8, "{taken} of 16 odd leaves taken");
 }
 
 /// Leaves the scalar test must decide: a shape that is not a triangle, a
@@ -189,9 +206,77 @@ fn declines_what_only_the_scalar_test_decides() {
     assert!(test(&p, &ray, &tr, false).is_none() && test(&p, &ray, &tr, true).is_none());
     let p = masked(AlphaMask::None, AlphaMask::Zero);
     assert!(test(&p, &ray, &tr, false).is_some() && test(&p, &ray, &tr, true).is_none());
+    // A leaf of two meshes, the second masked: each mesh is looked at.
+    let mut p = masked(AlphaMask::None, AlphaMask::None);
+    p[2] = masked(AlphaMask::Zero, AlphaMask::None).swap_remove(2);
+    assert!(test(&p, &ray, &tr, false).is_none());
     let mut p = masked(AlphaMask::None, AlphaMask::None);
     let identity =
         crate::shapes::Placement::new(&farm_common::geometry::Transform::default(), false);
     p[1].shape = Shape::Disk(Box::new(crate::shapes::Disk::new(identity, 0.0, 1.0, 0.0, 360.0)));
     assert!(test(&p, &ray, &tr, false).is_none());
+}
+
+/// The aggregate's walks with four lanes give the hits of its scalar loop,
+/// bit for bit: the primitive, the distance and the interaction, on a mesh
+/// large enough to share leaves (camera rays and rays leaving its
+/// surface, closest and any hit).
+#[test]
+fn the_aggregate_finds_the_scalar_loops_hits() {
+    use crate::primitive::{Aggregate, SHARED_LEAVES_FROM};
+    // A torus of 128 × 128 quads: 2¹⁵ triangles, which share leaves.
+    let n = 128u32;
+    let mut p = Vec::new();
+    for i in 0..n {
+        for j in 0..n {
+            let (u, v) = (i as f32 / n as f32 * 6.2831855, j as f32 / n as f32 * 6.2831855);
+            let r = 1.0 + 0.35 * math::cos(v);
+            p.push(Vec3::new(r * math::cos(u), r * math::sin(u), 0.35 * math::sin(v)));
+        }
+    }
+    let mesh = Arc::new(TriangleMesh { p, ..TriangleMesh::default() });
+    let idx = |i: u32, j: u32| (i % n) * n + j % n;
+    let mut prims = Vec::new();
+    for i in 0..n {
+        for j in 0..n {
+            let (a, b, c, d) = (idx(i, j), idx(i + 1, j), idx(i + 1, j + 1), idx(i, j + 1));
+            for v in [[a, b, c], [a, c, d]] {
+                let shape = Shape::Triangle { mesh: mesh.clone(), v };
+                prims.push(Primitive { shape, material: None.into(), area_light: None.into() });
+            }
+        }
+    }
+    assert!(prims.len() >= SHARED_LEAVES_FROM);
+    let agg = Aggregate::new(prims, 4);
+    let mut rng = Rng::new(5);
+    let (mut hits, mut leaving) = (0, Vec::new());
+    let check = |ray: &Ray| {
+        let trace = |scalar: bool| {
+            SCALAR_ONLY.set(scalar);
+            let hit = agg.closest(ray).map(|(t, si)| {
+                let bits = |v: Vec3| v.to_array().map(f32::to_bits);
+                (t.to_bits(), si.prim, bits(si.it.p), bits(si.it.n))
+            });
+            let blocked = agg.intersect_p(ray);
+            SCALAR_ONLY.set(false);
+            (hit, blocked)
+        };
+        let lanes = trace(false);
+        assert_eq!(lanes, trace(true), "{ray:?}");
+        lanes
+    };
+    for _ in 0..4000 {
+        let o = v3(&mut rng, -3.0, 3.0) + Vec3::new(0.0, 0.0, 4.0);
+        let ray = Ray::new(o, v3(&mut rng, -1.3, 1.3) - o, 0.0);
+        if let (Some((t, ..)), _) = check(&ray) {
+            hits += 1;
+            leaving.push(ray.at(f32::from_bits(t)));
+        }
+    }
+    for (k, from) in leaving.iter().enumerate() {
+        let mut ray = Ray::new(*from, v3(&mut rng, -1.0, 1.0), 0.0);
+        ray.t_max = if k % 2 == 0 { f32::INFINITY } else { 0.5 };
+        check(&ray);
+    }
+    assert!(hits > 1000, "{hits} camera rays hit");
 }
