@@ -10,10 +10,9 @@
 //! redoes in double precision), a mesh with an alpha mask, a shape that is
 //! not a triangle, and every leaf on other targets. So do leaves of one or
 //! two triangles: there the scalar test, which stops at the edge functions
-//! of a triangle missed, ran fewer instructions (killeroo-simple, whose
-//! leaves are mostly of two: 1.2% more in all with four lanes for them,
-//! none without; the kernel bench's walks lost about a quarter of their
-//! gain, below).
+//! of a triangle missed, ran fewer instructions (killeroo-simple: 1.2% more
+//! in all with four lanes for them, 1–4% more time; leaving them out cost
+//! the kernel bench's walks about a fifth of their gain, below).
 //!
 //! On the kernel bench's dump (`FARM_DUMP_DIR`; its 100k-triangle torus
 //! and 1M-triangle sphere, one thread, ns a ray, alternating runs), the
