@@ -137,7 +137,7 @@ impl Aggregate {
             |prims, r| {
                 // A leaf of three or four triangles at once, each lane
                 // accepted in turn as the loop below would: the same hits.
-                if prims.len() > 2 {
+                if prims.len() >= triangle4::FEWEST {
                     if let Some(q) = triangle4::test(&self.prims[prims.clone()], r, &tr, false) {
                         return q.accept(r, |k| {
                             best = Some((q.t[k], prims.start + k, Some(q.barycentrics(k))));
@@ -192,17 +192,18 @@ impl Aggregate {
         self.bvh.intersect_any_leaves(
             ray,
             #[inline(always)]
-            |prims, r| match (prims.len() > 2)
-                .then(|| triangle4::test(&self.prims[prims.clone()], r, &tr, true))
-                .flatten()
-            {
-                Some(q) => q.mask != 0,
-                None => any_in_leaf(
+            |prims, r| {
+                if prims.len() >= triangle4::FEWEST {
+                    if let Some(q) = triangle4::test(&self.prims[prims.clone()], r, &tr, true) {
+                        return q.mask != 0;
+                    }
+                }
+                any_in_leaf(
                     prims,
                     r,
                     #[inline(always)]
                     |i: usize, r: &Ray| self.prims[i].shape.intersect_p_prepared(r, &tr),
-                ),
+                )
             },
         )
     }

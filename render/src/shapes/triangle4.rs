@@ -32,6 +32,9 @@ use farm_common::geometry::Ray;
 /// Triangles tested at once.
 pub const LANES: usize = 4;
 
+/// The fewest triangles a leaf must hold for [`test`] to take it.
+pub const FEWEST: usize = 3;
+
 /// What [`test`] found in each lane, before the end of the ray's range is
 /// checked against its `t_max` as it stands when the lane's turn comes
 /// ([`Quad::within`]): the closest-hit walk shortens the ray after each
@@ -96,7 +99,7 @@ impl Quad {
 pub fn test(prims: &[Primitive], ray: &Ray, tr: &TriRay, shadow: bool) -> Option<Quad> {
     #[cfg(target_arch = "x86_64")]
     {
-        if prims.len() < 3 || prims.len() > LANES {
+        if prims.len() < FEWEST || prims.len() > LANES {
             return None;
         }
         #[cfg(test)]
