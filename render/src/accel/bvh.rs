@@ -107,7 +107,7 @@ fn build_binary(info: &mut [PrimInfo], max_prims_in_node: usize) -> Vec<LinearNo
     if !info.is_empty() {
         let limits = Limits { max_prims: max_prims_in_node.clamp(1, 255) };
         let ext = Extent::of(info);
-        build_node(info, 0, 0, &limits, ext, &mut nodes);
+        build_node(info, 0, 0, &limits, ext, None, &mut nodes);
     }
     nodes
 }

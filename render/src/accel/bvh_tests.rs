@@ -377,3 +377,54 @@ fn large_parallel_build_matches_brute_force() {
         assert_eq!(closest, brute, "ray {i}");
     }
 }
+
+/// The shortcuts of the build find pbrt-v3's tree: a node's buckets
+/// binned by its parent's partition, and a small node's choice made over
+/// the buckets it fills, give the same tree and order as scanning all
+/// twelve at every node. Over random boxes and spheres, a coherent grid of
+/// thin boxes (a mesh's order), flat boxes at +0 and -0, clusters of equal
+/// centroids and a few infinite and NaN bounds (compared by their printed
+/// bits).
+#[test]
+fn the_build_shortcuts_find_the_same_tree() {
+    let mut rng = Rng::new(23);
+    let mut prims = random_prims(&mut rng, 40_000);
+    for i in 0..20_000 {
+        let c = Vec3::new((i % 200) as f32, (i / 200) as f32 * 0.5, 0.0);
+        prims.push(Prim::Box(Bounds3f::new(c, c + Vec3::new(1.0, 0.5, 0.0))));
+    }
+    for i in 0..3_000 {
+        let z = if i % 2 == 0 { 0.0 } else { -0.0 };
+        let c = Vec3::new((i % 7) as f32 * 0.25, (i / 7) as f32 * 0.25, z);
+        let h = if i % 3 == 0 { Vec3::ZERO } else { v(&mut rng, 0.1).abs() };
+        prims.push(Prim::Box(Bounds3f::new(c - Vec3::new(h.x, h.y, 0.0), c + h.with_z(0.0))));
+    }
+    for i in 0..2_000 {
+        let c = v(&mut rng, 50.0) + Vec3::splat((i / 5) as f32 * 1e-3);
+        let h = v(&mut rng, 0.5).abs();
+        prims.push(Prim::Box(Bounds3f::new(c - h, c + h)));
+        prims.push(Prim::Box(Bounds3f::new(c - 2.0 * h, c + 2.0 * h)));
+    }
+    for i in 0..4 {
+        let c = v(&mut rng, 10.0);
+        let far = if i % 2 == 0 { f32::INFINITY } else { f32::MAX };
+        prims.push(Prim::Box(Bounds3f::new(c, c.with_x(far))));
+        let nan = Bounds3f { min: c.with_y(f32::NAN), max: c + Vec3::ONE };
+        prims.push(Prim::Box(nan));
+    }
+    let items: Vec<(u32, Prim)> =
+        prims.into_iter().enumerate().map(|(i, p)| (i as u32, p)).collect();
+    let build = |plain: bool| {
+        let pool = rayon::ThreadPoolBuilder::new().num_threads(1).build().unwrap();
+        pool.install(|| {
+            crate::accel::sah::PLAIN.with(|s| s.set(plain));
+            let cheap = |(_, p): &(u32, Prim)| matches!(p, Prim::Box(_));
+            let (bvh, ordered) = Bvh::build_over(items.clone(), |(_, p)| p.bounds(), cheap, 4);
+            let order: Vec<u32> = ordered.iter().map(|(i, _)| *i).collect();
+            (format!("{:?}", bvh.nodes), format!("{:?}", bvh.bounds), order)
+        })
+    };
+    let plain = build(true);
+    assert!(plain.2.len() > 60_000);
+    assert!(build(false) == plain);
+}

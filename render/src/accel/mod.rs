@@ -1,6 +1,7 @@
 //! Acceleration structures. pbrt-v3's `Accelerator "bvh"` is the only one:
 //! a `"kdtree"` accelerator in a scene is built as a BVH too.
 
+mod buckets;
 mod bvh;
 mod collapse;
 mod node;

@@ -2,12 +2,10 @@
 //! `BVHAccel::recursiveBuild` with `SplitMethod::SAH`), writing the
 //! flattened depth-first node array directly.
 
+use super::buckets::{choose, choose_few, Axis, Bins, Choice, FEW};
 use super::bvh::{LinearNode, STACK_SIZE};
 use farm_common::geometry::Bounds3f;
 use glam::Vec3A;
-
-/// Number of SAH buckets (pbrt-v3 uses 12).
-const N_BUCKETS: usize = 12;
 
 /// Subtrees with more primitives than this are built in parallel.
 const PARALLEL_THRESHOLD: usize = 64 * 1024;
@@ -31,7 +29,7 @@ pub(super) const COSTLY: u32 = 1 << 31;
 impl PrimInfo {
     /// The centroid's coordinate on `axis` (as `Bounds3f::centroid`).
     #[inline(always)]
-    fn centroid(&self, axis: usize) -> f32 {
+    pub(super) fn centroid(&self, axis: usize) -> f32 {
         0.5 * (self.bounds.min[axis] + self.bounds.max[axis])
     }
 }
@@ -41,12 +39,12 @@ impl PrimInfo {
 pub(super) struct Extent {
     min: Vec3A,
     max: Vec3A,
-    cmin: Vec3A,
-    cmax: Vec3A,
+    pub(super) cmin: Vec3A,
+    pub(super) cmax: Vec3A,
 }
 
 impl Extent {
-    const EMPTY: Extent = Extent {
+    pub(super) const EMPTY: Extent = Extent {
         min: Vec3A::INFINITY,
         max: Vec3A::NEG_INFINITY,
         cmin: Vec3A::INFINITY,
@@ -59,7 +57,7 @@ impl Extent {
     }
 
     #[inline(always)]
-    fn add(&self, p: &PrimInfo) -> Extent {
+    pub(super) fn add(&self, p: &PrimInfo) -> Extent {
         let (lo, hi) = (Vec3A::from(p.bounds.min), Vec3A::from(p.bounds.max));
         let c = 0.5 * (lo + hi);
         Extent {
@@ -71,7 +69,7 @@ impl Extent {
     }
 
     #[inline(always)]
-    fn union(&self, o: &Extent) -> Extent {
+    pub(super) fn union(&self, o: &Extent) -> Extent {
         Extent {
             min: self.min.min(o.min),
             max: self.max.max(o.max),
@@ -90,7 +88,7 @@ impl Extent {
 
     /// Surface area (zero when empty), as `Bounds3f::surface_area`.
     #[inline(always)]
-    fn area(&self) -> f32 {
+    pub(super) fn area(&self) -> f32 {
         let d = self.max - self.min;
         if d.cmplt(Vec3A::ZERO).any() {
             return 0.0;
@@ -113,63 +111,114 @@ impl Limits {
     }
 }
 
+/// How a node over some primitives is split, decided from their count,
+/// extent and depth alone (so a parent can tell before its children are
+/// built).
+#[derive(Clone, Copy, Debug)]
+enum Plan {
+    Leaf,
+    /// At the median centroid along this axis.
+    Median(usize),
+    /// At the cheapest bucket boundary along this axis.
+    Sah(Axis),
+}
+
+impl Plan {
+    fn of(n: usize, ext: &Extent, depth: u32, max_prims: usize) -> Plan {
+        if n == 1 {
+            return Plan::Leaf;
+        }
+        let cb = ext.centroids();
+        let dim = cb.maximum_extent();
+        // No spread of centroids (or NaN): SAH buckets cannot separate them.
+        let degenerate = cb.max[dim].partial_cmp(&cb.min[dim]) != Some(std::cmp::Ordering::Greater);
+        if degenerate && n <= max_prims {
+            return Plan::Leaf;
+        }
+        // Levels left for halving by count must keep every leaf within the stack.
+        let halvings = usize::BITS - (n - 1).leading_zeros();
+        if degenerate || n <= 2 || depth + halvings >= STACK_SIZE as u32 - 2 {
+            Plan::Median(dim)
+        } else {
+            Plan::Sah(Axis::of(ext, dim))
+        }
+    }
+
+    /// The axis to bucket along, if buckets are wanted.
+    fn axis(&self) -> Option<Axis> {
+        match self {
+            Plan::Sah(axis) => Some(*axis),
+            _ => None,
+        }
+    }
+}
+
 /// Appends the subtree over `info` (primitives `base..base + info.len()`
 /// of the final order, with extent `ext`) to `nodes`, depth first, and
-/// reorders `info`.
+/// reorders `info`. `bins`, when given, are `info`'s buckets along the
+/// axis its plan splits, binned by the parent's partition.
 pub(super) fn build_node(
     info: &mut [PrimInfo],
     base: u32,
     depth: u32,
     limits: &Limits,
     ext: Extent,
+    bins: Option<&Bins>,
     nodes: &mut Vec<LinearNode>,
 ) {
     let max_prims = limits.max_prims;
     let n = info.len();
     let bounds = ext.bounds();
     let leaf = |nodes: &mut Vec<LinearNode>| nodes.push(LinearNode::new(&bounds, base, n as u16));
-    if n == 1 {
-        return leaf(nodes);
-    }
-    let cb = ext.centroids();
-    let dim = cb.maximum_extent();
-    // No spread of centroids (or NaN): SAH buckets cannot separate them.
-    let degenerate = cb.max[dim].partial_cmp(&cb.min[dim]) != Some(std::cmp::Ordering::Greater);
-    if degenerate && n <= max_prims {
-        return leaf(nodes);
-    }
-    // Levels left for halving by count must keep every leaf within the stack.
-    let halvings = usize::BITS - (n - 1).leading_zeros();
-    let (mid, left_ext, right_ext) =
-        if degenerate || n <= 2 || depth + halvings >= STACK_SIZE as u32 - 2 {
+    let (mid, left_ext, right_ext, binned) = match Plan::of(n, &ext, depth, max_prims) {
+        Plan::Leaf => return leaf(nodes),
+        Plan::Median(dim) => {
             let mid = equal_counts(info, dim);
-            (mid, Extent::of(&info[..mid]), Extent::of(&info[mid..]))
-        } else {
-            match sah_split(info, &ext, dim, max_prims) {
+            (mid, Extent::of(&info[..mid]), Extent::of(&info[mid..]), None)
+        }
+        Plan::Sah(axis) => {
+            let total_area = ext.area();
+            let few = n <= FEW && !plain();
+            let choice = match bins {
+                Some(bins) if !plain() => choose(bins, total_area),
+                _ => match few.then(|| choose_few(info, &axis, total_area)).flatten() {
+                    Some(choice) => choice,
+                    None => {
+                        let mut scanned = Bins::EMPTY;
+                        scanned.scan(info, &axis);
+                        choose(&scanned, total_area)
+                    }
+                },
+            };
+            match sah_split(info, &axis, choice, depth, max_prims) {
                 Some(split) => split,
                 None => return leaf(nodes),
             }
-        };
+        }
+    };
+    let side = |i: usize| binned.as_ref().filter(|b| b.wanted[i]).map(|b| &b.bins[i]);
+    let (left_bins, right_bins) = (side(0), side(1));
     // Interior node: first child follows, second child's index patched in.
     let me = nodes.len();
     nodes.push(LinearNode::new(&bounds, 0, 0));
     let (left, right) = info.split_at_mut(mid);
     let right_base = base + mid as u32;
+    let d = depth + 1;
     if n > PARALLEL_THRESHOLD && rayon::current_num_threads() > 1 {
         // The first child goes straight into `nodes`, the second into a
         // vector of its own that is then moved over: only the second
         // child's nodes are ever held twice.
         let mut rn = Vec::new();
         rayon::join(
-            || build_node(left, base, depth + 1, limits, left_ext, nodes),
-            || build_node(right, right_base, depth + 1, limits, right_ext, &mut rn),
+            || build_node(left, base, d, limits, left_ext, left_bins, nodes),
+            || build_node(right, right_base, d, limits, right_ext, right_bins, &mut rn),
         );
         nodes[me].offset = nodes.len() as u32;
         append_shifted(nodes, &rn);
     } else {
-        build_node(left, base, depth + 1, limits, left_ext, nodes);
+        build_node(left, base, d, limits, left_ext, left_bins, nodes);
         nodes[me].offset = nodes.len() as u32;
-        build_node(right, right_base, depth + 1, limits, right_ext, nodes);
+        build_node(right, right_base, d, limits, right_ext, right_bins, nodes);
     }
     // A subtree of at most `max_prims` cheap primitives (the SAH mostly
     // splits down to one a leaf) becomes one leaf: its primitives are now
@@ -202,65 +251,78 @@ fn equal_counts(info: &mut [PrimInfo], dim: usize) -> usize {
     mid
 }
 
-/// Chooses the cheapest bucket boundary by the SAH (pbrt-v3's cost
-/// `1 + (n₀A₀ + n₁A₁)/A` against a leaf's `n`) and partitions `info` around
-/// it; returns the split point and the extents of both sides, or `None`
-/// when a leaf is cheaper and allowed.
+/// The buckets a partition binned for the two sides it split, of which
+/// the sides whose plans split by the SAH want theirs.
+pub(super) struct Binned {
+    bins: [Bins; 2],
+    wanted: [bool; 2],
+}
+
+/// The fewest primitives of a node whose partition bins its sides'
+/// buckets. Binning costs a node's partition more than scanning costs
+/// its children until their primitives no longer fit the first caches;
+/// from 2¹² to 2¹⁶ the build took the same time.
+const BINNED_FROM: usize = 1 << 14;
+
+#[cfg(test)]
+thread_local! {
+    /// Test-only: every node scans all twelve of its buckets, rather than
+    /// taking those its parent's partition binned or looking at only
+    /// those its few primitives fill, so that a test can compare builds.
+    pub(super) static PLAIN: std::cell::Cell<bool> = const { std::cell::Cell::new(false) };
+}
+
+#[inline(always)]
+fn plain() -> bool {
+    #[cfg(test)]
+    return PLAIN.with(|s| s.get());
+    #[cfg(not(test))]
+    false
+}
+
+/// Splits `info` at `choice`, partitioning it around the boundary. Returns
+/// the split point, the extents of both sides and, for a large node, the
+/// buckets its sides will want, binned on the way; or `None` when a leaf is
+/// cheaper and allowed (pbrt-v3 compares the cost with a leaf's `n`).
 fn sah_split(
     info: &mut [PrimInfo],
-    ext: &Extent,
-    dim: usize,
+    axis: &Axis,
+    choice: Choice,
+    depth: u32,
     max_prims: usize,
-) -> Option<(usize, Extent, Extent)> {
-    let lo = ext.cmin[dim];
-    let scale = N_BUCKETS as f32 / (ext.cmax[dim] - lo);
-    let last = (N_BUCKETS - 1) as f32;
-    let bucket = |p: &PrimInfo| ((p.centroid(dim) - lo) * scale).min(last) as usize;
-    let mut counts = [0usize; N_BUCKETS];
-    let mut be = [Extent::EMPTY; N_BUCKETS];
-    for p in info.iter() {
-        let b = bucket(p);
-        counts[b] += 1;
-        be[b] = be[b].add(p);
-    }
-    // Sweep from the right to get the cost of every boundary in O(buckets).
-    let mut right = [Extent::EMPTY; N_BUCKETS];
-    let mut right_count = [0usize; N_BUCKETS];
-    let (mut acc, mut acc_n) = (Extent::EMPTY, 0);
-    for i in (1..N_BUCKETS).rev() {
-        acc = acc.union(&be[i]);
-        acc_n += counts[i];
-        right[i] = acc;
-        right_count[i] = acc_n;
-    }
-    let total_area = ext.area();
-    let (mut acc, mut acc_n) = (Extent::EMPTY, 0);
-    let (mut min_cost, mut split) = (f32::INFINITY, None);
-    for i in 0..N_BUCKETS - 1 {
-        acc = acc.union(&be[i]);
-        acc_n += counts[i];
-        let below = acc_n as f32 * acc.area();
-        let above = right_count[i + 1] as f32 * right[i + 1].area();
-        let cost = 1.0 + (below + above) / total_area;
-        if cost < min_cost {
-            min_cost = cost;
-            split = Some((i, acc_n, acc, right[i + 1]));
-        }
-    }
+) -> Option<(usize, Extent, Extent, Option<Box<Binned>>)> {
+    let (min_cost, split) = (choice.cost, choice.split);
     let n = info.len();
     if n <= max_prims && min_cost >= n as f32 {
         return None;
     }
     let mid = match split {
         Some((b, count, l, r)) if count > 0 && count < n => {
-            let mid = partition(info, |p| bucket(p) <= b);
+            // Each side's buckets along the axis its own plan will split
+            // are binned as the partition passes its primitives, which
+            // spares the children a pass over them.
+            let d = depth + 1;
+            let axes = || {
+                [Plan::of(count, &l, d, max_prims), Plan::of(n - count, &r, d, max_prims)]
+                    .map(|plan| plan.axis())
+            };
+            let keep = |p: &PrimInfo| axis.bucket(p) <= b;
+            let axes = if n >= BINNED_FROM { axes() } else { [None, None] };
+            let (mid, bins) = if axes.iter().any(Option::is_some) {
+                let mut binned =
+                    Box::new(Binned { bins: [Bins::EMPTY; 2], wanted: axes.map(|a| a.is_some()) });
+                let axes = axes.map(|a| a.unwrap_or(Axis::UNUSED));
+                (partition_binned(info, keep, &axes, &mut binned.bins), Some(binned))
+            } else {
+                (partition(info, keep), None)
+            };
             debug_assert_eq!(mid, count);
-            return Some((mid, l, r));
+            return Some((mid, l, r, bins));
         }
         // Only reachable with NaN bounds: split at the median.
-        _ => equal_counts(info, dim),
+        _ => equal_counts(info, axis.dim),
     };
-    Some((mid, Extent::of(&info[..mid]), Extent::of(&info[mid..])))
+    Some((mid, Extent::of(&info[..mid]), Extent::of(&info[mid..]), None))
 }
 
 /// Moves the elements satisfying `pred` to the front; returns their count.
@@ -270,6 +332,28 @@ fn partition(v: &mut [PrimInfo], pred: impl Fn(&PrimInfo) -> bool) -> usize {
     let mut j = 0;
     for i in 0..v.len() {
         let keep = pred(&v[i]);
+        swap_fields(v, i, j);
+        j += keep as usize;
+    }
+    j
+}
+
+/// [`partition`], which also bins each element into `bins[0]` along
+/// `axes[0]` if it satisfies `pred`, else into `bins[1]` along `axes[1]`.
+/// The order it leaves is [`partition`]'s, and each element is binned
+/// once: it is read at `v[i]` before any swap moves it behind `i`.
+fn partition_binned(
+    v: &mut [PrimInfo],
+    pred: impl Fn(&PrimInfo) -> bool,
+    axes: &[Axis; 2],
+    bins: &mut [Bins; 2],
+) -> usize {
+    let mut j = 0;
+    for i in 0..v.len() {
+        let p = v[i];
+        let keep = pred(&p);
+        let side = (!keep) as usize;
+        bins[side].add(axes[side].bucket(&p), &p);
         swap_fields(v, i, j);
         j += keep as usize;
     }
