@@ -84,6 +84,12 @@ const SHALLOW_STACK_SIZE: usize = 2 * STACK_SIZE + 1;
 /// veach-mis, instances), whose trees have 3–8 nodes.
 const AVX_FROM_NODES: usize = 64;
 
+/// Bytes of capacity from which a built tree keeps its unused capacity
+/// rather than being copied to fit (see [`Bvh::collapsed`]): twice the
+/// largest size below which glibc's malloc may serve a block from its heap
+/// (32 MiB), so such a block is always a fresh mapping of its own.
+const KEEP_CAPACITY_FROM: usize = 64 << 20;
+
 /// `items` in the order `order` gives (entry `i` is the index of the item
 /// that goes to place `i`; a permutation), moved into a new vector. The
 /// reads are independent of each other, so the memory system serves many
@@ -269,7 +275,14 @@ impl Bvh {
         let bounds = nodes.first().map_or(Bounds3f::default(), LinearNode::bounds);
         let mut wide = collapse(&nodes);
         drop(nodes);
-        wide.shrink_to_fit();
+        // Nodes are over-aligned, so the allocator cannot shrink them in
+        // place: shrinking copies the tree into fresh pages (90 ms of a
+        // 4M-triangle mesh's 2 s start-up). A large tree's capacity is a
+        // mapping of its own whose unused tail was never touched and holds
+        // no memory; a small one's may sit among reused heap pages.
+        if wide.capacity() * std::mem::size_of::<Node>() < KEEP_CAPACITY_FROM {
+            wide.shrink_to_fit();
+        }
         let deep = !wide.is_empty() && stack_need(&wide, 0) > SHALLOW_STACK_SIZE;
         let avx = simd() == Simd::Avx && wide.len() >= AVX_FROM_NODES;
         Bvh { nodes: wide, bounds, deep, avx }

@@ -10,7 +10,7 @@ use super::node::{Node, WIDTH};
 pub(super) fn collapse(bin: &[LinearNode]) -> Vec<Node> {
     // Each wide node stands for at least one binary interior node; the
     // capacity not used is never touched, so it takes address space but no
-    // memory (and is given back once the tree is built).
+    // memory (a small tree's is given back once it is built).
     let mut out = Vec::with_capacity(bin.len() / 2 + 1);
     if !bin.is_empty() {
         out.push(Node { b: [[0.0; WIDTH]; 6], child: [0; WIDTH], count: [0; WIDTH], n: 0 });
