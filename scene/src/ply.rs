@@ -316,6 +316,24 @@ fn read_vertices(e: &Element, body: &mut Body<'_>, mesh: &mut PlyMesh) -> Result
     mesh.p.reserve(e.count);
     let mut ns = normal.map(|_| Vec::with_capacity(e.count));
     let mut uvs = uv.map(|_| Vec::with_capacity(e.count));
+    if let Some(bytes) = float_records(e, body) {
+        for rec in bytes.chunks_exact(4 * e.props.len()) {
+            let f = |k: usize| {
+                f32::from_le_bytes([rec[4 * k], rec[4 * k + 1], rec[4 * k + 2], rec[4 * k + 3]])
+            };
+            mesh.p.push([f(x), f(y), f(z)]);
+            if let (Some(ns), Some([a, b, c])) = (ns.as_mut(), normal) {
+                ns.push([f(a), f(b), f(c)]);
+            }
+            if let (Some(uvs), Some([a, b])) = (uvs.as_mut(), uv) {
+                uvs.push([f(a), f(b)]);
+            }
+        }
+        body.pos += bytes.len();
+        mesh.n = ns;
+        mesh.uv = uvs;
+        return Ok(());
+    }
     let mut vals = vec![0.0f32; e.props.len()];
     for i in 0..e.count {
         for (j, p) in e.props.iter().enumerate() {
@@ -338,6 +356,63 @@ fn read_vertices(e: &Element, body: &mut Body<'_>, mesh: &mut PlyMesh) -> Result
     Ok(())
 }
 
+/// The bytes of `e`'s records next in `body` when they are little-endian
+/// floats only, a common layout read a record at a time; `None` for any
+/// other layout, or a file too short, which the general reader then reads
+/// (or words the error for).
+fn float_records<'a>(e: &Element, body: &Body<'a>) -> Option<&'a [u8]> {
+    let floats = e.props.iter().all(|p| p.list.is_none() && p.ty == Scalar::F32);
+    if body.format != Format::Little || !floats || e.props.is_empty() {
+        return None;
+    }
+    let len = e.count.checked_mul(4 * e.props.len())?;
+    body.data.get(body.pos..body.pos.checked_add(len)?)
+}
+
+/// Whether the faces of `e` may be read by [`fast_face`]: little-endian,
+/// the index list (property `vi`) their only property, counted in a byte,
+/// of 32-bit indices; and whether those are signed.
+fn fast_faces(e: &Element, vi: usize, format: Format) -> Option<bool> {
+    let p = &e.props[vi];
+    if format != Format::Little || e.props.len() != 1 || p.list != Some(Scalar::U8) {
+        return None;
+    }
+    match p.ty {
+        Scalar::I32 => Some(true),
+        Scalar::U32 => Some(false),
+        _ => None,
+    }
+}
+
+/// Reads the next face as the general reader would when it is a triangle
+/// or a quad whose indices are all in range (nearly every face of a
+/// mesh); returns false, having read nothing, for any other face, which
+/// the general reader then reads or reports.
+#[inline(always)]
+fn fast_face(body: &mut Body<'_>, signed: bool, vertex_count: usize, out: &mut Vec<i32>) -> bool {
+    let d = &body.data[body.pos..];
+    let n = match d.first() {
+        Some(&n @ (3 | 4)) => usize::from(n),
+        _ => return false,
+    };
+    let Some(b) = d.get(1..1 + 4 * n) else { return false };
+    let mut face = [0i32; 4];
+    for (k, v) in b.chunks_exact(4).enumerate() {
+        let raw = u32::from_le_bytes([v[0], v[1], v[2], v[3]]);
+        let v = if signed { i64::from(raw as i32) } else { i64::from(raw) };
+        if v < 0 || v >= vertex_count as i64 {
+            return false;
+        }
+        face[k] = v as i32;
+    }
+    match n {
+        3 => out.extend_from_slice(&face[..3]),
+        _ => out.extend_from_slice(&[face[0], face[1], face[2], face[3], face[0], face[2]]),
+    }
+    body.pos += 1 + 4 * n;
+    true
+}
+
 fn read_faces(
     e: &Element,
     body: &mut Body<'_>,
@@ -353,8 +428,14 @@ fn read_faces(
         return err("face element has no \"vertex_indices\" list property");
     };
     mesh.indices.reserve(e.count * 3);
+    let fast = fast_faces(e, vi, body.format);
     let mut face = [0i32; 4];
     for i in 0..e.count {
+        if let Some(signed) = fast {
+            if fast_face(body, signed, vertex_count, &mut mesh.indices) {
+                continue;
+            }
+        }
         for (j, p) in e.props.iter().enumerate() {
             if j != vi {
                 body.skip_property(p).map_err(|m| in_element(m, e, i))?;
@@ -395,98 +476,5 @@ fn read_faces(
 }
 
 #[cfg(test)]
-mod tests {
-    use super::*;
-
-    const ASCII: &str = "ply\nformat ascii 1.0\ncomment hi\nelement vertex 4\nproperty float x\nproperty float y\n\
-property float z\nproperty float nx\nproperty float ny\nproperty float nz\nproperty float s\nproperty float t\n\
-element face 2\nproperty list uchar int vertex_indices\nelement edge 1\nproperty int a\nend_header\n\
-0 0 0 0 0 1 0 0\n1 0 0 0 0 1 1 0\n1 1 0 0 0 1 1 1\n0 1 0 0 0 1 0 1\n4 0 1 2 3\n3 0 2 1\n7\n";
-
-    #[test]
-    fn ascii_with_normals_uv_and_quads() {
-        let m = parse(ASCII.as_bytes()).unwrap();
-        assert_eq!(m.p.len(), 4);
-        assert_eq!(m.p[2], [1.0, 1.0, 0.0]);
-        assert_eq!(m.n.as_ref().unwrap()[3], [0.0, 0.0, 1.0]);
-        assert_eq!(m.uv.as_ref().unwrap()[1], [1.0, 0.0]);
-        assert_eq!(m.indices, vec![0, 1, 2, 3, 0, 2, 0, 2, 1]);
-    }
-
-    fn binary(big: bool, faces: &[&[u32]], truncate: usize) -> Vec<u8> {
-        let fmt = if big { "binary_big_endian" } else { "binary_little_endian" };
-        let mut d = format!(
-            "ply\nformat {fmt} 1.0\nelement vertex 3\nproperty double x\nproperty float y\nproperty float z\n\
-property uchar flags\nelement face {}\nproperty uchar junk\nproperty list ushort uint vertex_index\nend_header\n",
-            faces.len()
-        )
-        .into_bytes();
-        for i in 0..3 {
-            let x = i as f64;
-            d.extend(if big { x.to_be_bytes() } else { x.to_le_bytes() });
-            for v in [2.0f32 * i as f32, -1.0] {
-                d.extend(if big { v.to_be_bytes() } else { v.to_le_bytes() });
-            }
-            d.push(9);
-        }
-        for f in faces {
-            d.push(0);
-            let n = f.len() as u16;
-            d.extend(if big { n.to_be_bytes() } else { n.to_le_bytes() });
-            for &v in *f {
-                d.extend(if big { v.to_be_bytes() } else { v.to_le_bytes() });
-            }
-        }
-        d.truncate(d.len() - truncate);
-        d
-    }
-
-    #[test]
-    fn binary_both_endians() {
-        for big in [false, true] {
-            let m = parse(&binary(big, &[&[0, 1, 2], &[2, 1, 0, 1, 2]], 0)).unwrap();
-            assert_eq!(m.p, vec![[0.0, 0.0, -1.0], [1.0, 2.0, -1.0], [2.0, 4.0, -1.0]]);
-            assert_eq!(m.indices, vec![0, 1, 2]);
-            assert_eq!(m.warnings.len(), 1);
-            assert!(m.n.is_none() && m.uv.is_none());
-        }
-    }
-
-    #[test]
-    fn truncated_and_malformed_are_errors() {
-        let e = parse(&binary(false, &[&[0, 1, 2]], 2)).unwrap_err();
-        assert!(e.0.contains("truncated"), "{e}");
-        let e = parse(&binary(false, &[&[0, 1, 7]], 0)).unwrap_err();
-        assert!(e.0.contains("out of bounds"), "{e}");
-        assert!(parse(b"ply\nformat ascii 1.0\n").is_err());
-        assert!(parse(b"PLY\n").is_err());
-        assert!(parse(
-            b"ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nend_header\n0\n"
-        )
-        .is_err());
-    }
-
-    #[test]
-    fn counts_beyond_the_file_are_refused_before_allocating() {
-        let head = |fmt: &str, n: &str| {
-            format!(
-                "ply\nformat {fmt} 1.0\nelement vertex {n}\nproperty float x\nproperty float y\n\
-property float z\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n"
-            )
-        };
-        for fmt in ["ascii", "binary_little_endian"] {
-            for n in ["2147483648", "4611686018427387904", "18446744073709551615"] {
-                let mut d = head(fmt, n).into_bytes();
-                d.extend([0u8; 64]);
-                let e = parse(&d).unwrap_err();
-                assert!(e.0.contains(&format!("declares {n} items")), "{e}");
-                assert!(e.0.contains("only 64 bytes follow the header"), "{e}");
-            }
-        }
-        // An element without properties costs nothing, whatever its count.
-        let d = "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\n\
-property float z\nelement nothing 18446744073709551615\nelement face 1\n\
-property list uchar int vertex_indices\nend_header\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2";
-        assert_eq!(parse(d.as_bytes()).unwrap().indices, vec![0, 1, 2]);
-    }
-}
+#[path = "ply_tests.rs"]
+mod tests;
