@@ -85,23 +85,36 @@ impl Choice {
 /// pbrt-v3's choice among the boundaries of all twelve buckets `bins`.
 #[inline(always)]
 pub(super) fn choose(bins: &Bins, total_area: f32) -> Choice {
-    let (counts, be) = (&bins.counts, &bins.ext);
-    // Sweep from the right to get the cost of every boundary in O(buckets).
-    let mut right = [Extent::EMPTY; N_BUCKETS];
-    let mut right_count = [0u32; N_BUCKETS];
+    sweep(&bins.counts, &bins.ext, N_BUCKETS, |i| i, total_area)
+}
+
+/// The cheapest boundary between consecutive buckets of the first `m` of
+/// `counts` and `ext`, in order: the `j`-th is the one after bucket
+/// `which(j)`. The costs of every boundary come from one sweep from the
+/// right and one from the left.
+#[inline(always)]
+fn sweep<const M: usize>(
+    counts: &[u32; M],
+    ext: &[Extent; M],
+    m: usize,
+    which: impl Fn(usize) -> usize,
+    total_area: f32,
+) -> Choice {
+    let mut right = [Extent::EMPTY; M];
+    let mut right_count = [0u32; M];
     let (mut acc, mut acc_n) = (Extent::EMPTY, 0);
-    for i in (1..N_BUCKETS).rev() {
-        acc = acc.union(&be[i]);
-        acc_n += counts[i];
-        right[i] = acc;
-        right_count[i] = acc_n;
+    for j in (1..m).rev() {
+        acc = acc.union(&ext[j]);
+        acc_n += counts[j];
+        right[j] = acc;
+        right_count[j] = acc_n;
     }
     let (mut acc, mut acc_n) = (Extent::EMPTY, 0);
     let mut choice = Choice::NONE;
-    for i in 0..N_BUCKETS - 1 {
-        acc = acc.union(&be[i]);
-        acc_n += counts[i];
-        choice.consider(i, acc_n, &acc, right_count[i + 1], &right[i + 1], total_area);
+    for j in 0..m - 1 {
+        acc = acc.union(&ext[j]);
+        acc_n += counts[j];
+        choice.consider(which(j), acc_n, &acc, right_count[j + 1], &right[j + 1], total_area);
     }
     choice
 }
@@ -152,21 +165,5 @@ pub(super) fn choose_few(info: &[PrimInfo], axis: &Axis, total_area: f32) -> Opt
         }
         m += 1;
     }
-    let mut right = [Extent::EMPTY; FEW];
-    let mut right_count = [0u32; FEW];
-    let (mut acc, mut acc_n) = (Extent::EMPTY, 0);
-    for j in (1..m).rev() {
-        acc = acc.union(&be[j]);
-        acc_n += counts[j];
-        right[j] = acc;
-        right_count[j] = acc_n;
-    }
-    let (mut acc, mut acc_n) = (Extent::EMPTY, 0);
-    let mut choice = Choice::NONE;
-    for j in 0..m - 1 {
-        acc = acc.union(&be[j]);
-        acc_n += counts[j];
-        choice.consider(which[j], acc_n, &acc, right_count[j + 1], &right[j + 1], total_area);
-    }
-    Some(choice)
+    Some(sweep(&counts, &be, m, |j| which[j], total_area))
 }
