@@ -400,7 +400,7 @@ fn fast_face(body: &mut Body<'_>, signed: bool, vertex_count: usize, out: &mut V
     for (k, v) in b.chunks_exact(4).enumerate() {
         let raw = u32::from_le_bytes([v[0], v[1], v[2], v[3]]);
         let v = if signed { i64::from(raw as i32) } else { i64::from(raw) };
-        if v < 0 || v >= vertex_count as i64 {
+        if v < 0 || v >= vertex_count as i64 || v > i64::from(i32::MAX) {
             return false;
         }
         face[k] = v as i32;

@@ -95,16 +95,32 @@ property list uchar int vertex_indices\nend_header\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2
 /// A mesh in the layout exporters write (float positions, normals and
 /// texture coordinates; faces of a byte count and 32-bit indices), which
 /// little-endian files read a record at a time.
-fn common_layout(big: bool, signed: bool, faces: &[Vec<i64>], truncate: usize) -> Vec<u8> {
+/// With `tagged`, an element of one list of ten numbers comes first, so
+/// that a file cut short in its vertices passes the count check (which
+/// counts a list as its length alone).
+fn common_layout(
+    big: bool,
+    signed: bool,
+    faces: &[Vec<i64>],
+    truncate: usize,
+    tagged: bool,
+) -> Vec<u8> {
     let fmt = if big { "binary_big_endian" } else { "binary_little_endian" };
     let index = if signed { "int" } else { "uint" };
+    let tag = if tagged { "element tag 1\nproperty list uchar int values\n" } else { "" };
     let mut d = format!(
-        "ply\nformat {fmt} 1.0\nelement vertex 5\nproperty float x\nproperty float y\n\
+        "ply\nformat {fmt} 1.0\n{tag}element vertex 5\nproperty float x\nproperty float y\n\
 property float z\nproperty float nx\nproperty float ny\nproperty float nz\nproperty float u\n\
 property float v\nelement face {}\nproperty list uchar {index} vertex_indices\nend_header\n",
         faces.len()
     )
     .into_bytes();
+    if tagged {
+        d.push(10);
+        for k in 0..10i32 {
+            d.extend(if big { k.to_be_bytes() } else { k.to_le_bytes() });
+        }
+    }
     for i in 0..5 {
         for k in 0..8 {
             let v = [1.5f32, -0.0, f32::NAN, 1e-40, 3.25e7][(i + k) % 5] * (k + 1) as f32;
@@ -125,34 +141,39 @@ property float v\nelement face {}\nproperty list uchar {index} vertex_indices\ne
 /// The record-at-a-time reading of little-endian files gives what the
 /// general reader gives for the same numbers big-endian: the same mesh,
 /// warnings and errors, for triangles, quads, other polygons, indices out
-/// of range either way, and files cut short in either element.
+/// of range either way, and files cut short in a triangle or in the
+/// vertices.
 #[test]
 fn the_common_layout_reads_as_the_general_reader_does() {
     let good: Vec<Vec<i64>> =
-        vec![vec![0, 1, 2], vec![4, 3, 2, 1], vec![0, 1, 2, 3, 4], vec![2, 4]];
-    let cases: Vec<(Vec<Vec<i64>>, usize)> = vec![
-        (good.clone(), 0),
-        ([good.clone(), vec![vec![0, 5, 1]]].concat(), 0),
-        ([good.clone(), vec![vec![0, 1, 2, -1]]].concat(), 0),
-        (
-            [good.clone(), vec![vec![1u32 << 31 | 1, 1, 2].into_iter().map(i64::from).collect()]]
-                .concat(),
-            0,
-        ),
-        (good.clone(), 3),
-        (good.clone(), 100),
-        (good.clone(), 8 * 4 * 5 + 50),
+        vec![vec![0, 1, 2], vec![4, 3, 2, 1], vec![0, 1, 2, 3, 4], vec![2, 4], vec![3, 4, 0]];
+    let big_index = vec![vec![1i64 << 31 | 1, 1, 2]];
+    let cases: Vec<(Vec<Vec<i64>>, usize, bool)> = vec![
+        (good.clone(), 0, false),
+        ([good.clone(), vec![vec![0, 5, 1]]].concat(), 0, false),
+        ([good.clone(), vec![vec![0, 1, 2, -1]]].concat(), 0, false),
+        ([good.clone(), big_index].concat(), 0, false),
+        // Cut in the last triangle.
+        (good.clone(), 3, false),
+        (good.clone(), 0, true),
+        // Cut in the vertices: 20 bytes short of them, faces and all.
+        (good.clone(), 20 + 13 + 17 + 21 + 9 + 13, true),
     ];
     for signed in [true, false] {
-        for (faces, cut) in &cases {
-            let little = parse(&common_layout(false, signed, faces, *cut));
-            let big = parse(&common_layout(true, signed, faces, *cut));
+        for (faces, cut, tagged) in &cases {
+            let little = parse(&common_layout(false, signed, faces, *cut, *tagged));
+            let big = parse(&common_layout(true, signed, faces, *cut, *tagged));
             // NaN positions compare unequal: compare the printed meshes.
             assert_eq!(format!("{little:?}"), format!("{big:?}"), "faces {faces:?}, cut {cut}");
+            if *cut > 0 {
+                let e = little.unwrap_err();
+                let place = if *tagged { "\"vertex\"" } else { "\"face\" item 4" };
+                assert!(e.0.contains("truncated") && e.0.contains(place), "{e}");
+            }
         }
     }
-    let m = parse(&common_layout(false, true, &good, 0)).unwrap();
-    assert_eq!(m.indices, vec![0, 1, 2, 4, 3, 2, 1, 4, 2]);
+    let m = parse(&common_layout(false, true, &good, 0, false)).unwrap();
+    assert_eq!(m.indices, vec![0, 1, 2, 4, 3, 2, 1, 4, 2, 3, 4, 0]);
     let p = m.p[0];
     assert!(p[0] == 1.5 && p[1].to_bits() == (-0.0f32).to_bits() && p[2].is_nan());
     assert_eq!(m.n.as_ref().unwrap()[0], [1e-40 * 4.0, 3.25e7 * 5.0, 1.5 * 6.0]);

@@ -128,8 +128,11 @@ pub(super) const FEW: usize = 8;
 /// choice, bit for bit: every boundary between two filled buckets costs
 /// what the first does, which is the one pbrt-v3 keeps, and an empty
 /// bucket's extent leaves a union as it was. That holds without NaN; a
-/// NaN or infinite bound, or a first or last bucket left empty (which
-/// finite bounds never do), gives `None`, for [`choose`] to decide.
+/// NaN or infinite bound gives `None`, for [`choose`] to decide, and so
+/// does a first or last bucket left empty, where the sweep over all
+/// twelve would also weigh a boundary with nothing on one side (finite
+/// bounds do that only when the centroids' spread overflows or is
+/// subnormal).
 #[inline(always)]
 pub(super) fn choose_few(info: &[PrimInfo], axis: &Axis, total_area: f32) -> Option<Choice> {
     let n = info.len();

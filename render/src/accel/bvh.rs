@@ -276,10 +276,12 @@ impl Bvh {
         let mut wide = collapse(&nodes);
         drop(nodes);
         // Nodes are over-aligned, so the allocator cannot shrink them in
-        // place: shrinking copies the tree into fresh pages (90 ms of a
+        // place: shrinking copies the tree into fresh pages (60–90 ms of a
         // 4M-triangle mesh's 2 s start-up). A large tree's capacity is a
         // mapping of its own whose unused tail was never touched and holds
-        // no memory; a small one's may sit among reused heap pages.
+        // no memory (it is address space, and commit charge where the
+        // kernel does not overcommit); a small one's may sit among reused
+        // heap pages.
         if wide.capacity() * std::mem::size_of::<Node>() < KEEP_CAPACITY_FROM {
             wide.shrink_to_fit();
         }

@@ -381,10 +381,12 @@ fn large_parallel_build_matches_brute_force() {
 /// The shortcuts of the build find pbrt-v3's tree: a node's buckets
 /// binned by its parent's partition, and a small node's choice made over
 /// the buckets it fills, give the same tree and order as scanning all
-/// twelve at every node. Over random boxes and spheres, a coherent grid of
-/// thin boxes (a mesh's order), flat boxes at +0 and -0, clusters of equal
-/// centroids and a few infinite and NaN bounds (compared by their printed
-/// bits).
+/// twelve at every node, bit for bit. Over random boxes and spheres, a
+/// coherent grid of thin boxes (a mesh's order), clusters of equal
+/// centroids, and a row of boxes (more than a binned node's worth) whose
+/// bounds mix +0 and -0 (which the fold of a minimum or maximum keeps
+/// either of, by order), with NaN and infinite bounds among them. Nodes
+/// are compared as printed, which tells -0 from +0.
 #[test]
 fn the_build_shortcuts_find_the_same_tree() {
     let mut rng = Rng::new(23);
@@ -393,24 +395,40 @@ fn the_build_shortcuts_find_the_same_tree() {
         let c = Vec3::new((i % 200) as f32, (i / 200) as f32 * 0.5, 0.0);
         prims.push(Prim::Box(Bounds3f::new(c, c + Vec3::new(1.0, 0.5, 0.0))));
     }
-    for i in 0..3_000 {
-        let z = if i % 2 == 0 { 0.0 } else { -0.0 };
-        let c = Vec3::new((i % 7) as f32 * 0.25, (i / 7) as f32 * 0.25, z);
-        let h = if i % 3 == 0 { Vec3::ZERO } else { v(&mut rng, 0.1).abs() };
-        prims.push(Prim::Box(Bounds3f::new(c - Vec3::new(h.x, h.y, 0.0), c + h.with_z(0.0))));
-    }
     for i in 0..2_000 {
         let c = v(&mut rng, 50.0) + Vec3::splat((i / 5) as f32 * 1e-3);
         let h = v(&mut rng, 0.5).abs();
         prims.push(Prim::Box(Bounds3f::new(c - h, c + h)));
         prims.push(Prim::Box(Bounds3f::new(c - 2.0 * h, c + 2.0 * h)));
     }
-    for i in 0..4 {
+    let zero = |i: usize, k: usize| if (i / k).is_multiple_of(2) { 0.0 } else { -0.0 };
+    for i in 0..40_000 {
+        let x = 300.0 + (i % 20_000) as f32 * 0.01;
+        let mut min = Vec3::new(x, zero(i, 1), zero(i, 3));
+        let max = Vec3::new(x + 0.005, 1.0 + (i / 20_000) as f32, zero(i, 2));
+        if i % 9_001 == 4_000 {
+            min.y = f32::NAN;
+        }
+        if i % 13_001 == 6_000 {
+            min.x = f32::NEG_INFINITY;
+        }
+        prims.push(Prim::Box(Bounds3f { min, max }));
+    }
+    // A row without -0, with NaN and infinite bounds among them.
+    for i in 0..20_000 {
+        let x = 600.0 + i as f32 * 0.01;
+        let mut min = Vec3::new(x, 0.5, 0.5);
+        if i % 997 == 500 {
+            min.y = f32::NAN;
+        }
+        if i % 1_999 == 700 {
+            min.z = f32::NEG_INFINITY;
+        }
+        prims.push(Prim::Box(Bounds3f { min, max: Vec3::new(x + 0.005, 1.0, 1.0) }));
+    }
+    for _ in 0..100 {
         let c = v(&mut rng, 10.0);
-        let far = if i % 2 == 0 { f32::INFINITY } else { f32::MAX };
-        prims.push(Prim::Box(Bounds3f::new(c, c.with_x(far))));
-        let nan = Bounds3f { min: c.with_y(f32::NAN), max: c + Vec3::ONE };
-        prims.push(Prim::Box(nan));
+        prims.push(Prim::Box(Bounds3f::new(c, c + Vec3::ONE)));
     }
     let items: Vec<(u32, Prim)> =
         prims.into_iter().enumerate().map(|(i, p)| (i as u32, p)).collect();
@@ -425,6 +443,6 @@ fn the_build_shortcuts_find_the_same_tree() {
         })
     };
     let plain = build(true);
-    assert!(plain.2.len() > 60_000);
+    assert!(plain.2.len() > 100_000 && plain.0.contains("-0.0"));
     assert!(build(false) == plain);
 }
