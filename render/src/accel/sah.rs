@@ -268,9 +268,10 @@ pub(super) struct Binned {
 }
 
 /// The fewest primitives of a node whose partition bins its sides'
-/// buckets. Binning costs a node's partition more than scanning costs
-/// its children until their primitives no longer fit the first caches;
-/// from 2¹² to 2¹⁶ the build took the same time.
+/// buckets. Timed by level on a 4M-triangle mesh, binning saved 15–25%
+/// from 2¹⁸ primitives (out of L2) and cost about 10% at 2¹⁵–2¹⁶; as the
+/// threshold, 2¹² to 2¹⁷ gave the same start-up within noise, and 2¹⁴
+/// lets the build tests (100k primitives) exercise it.
 const BINNED_FROM: usize = 1 << 14;
 
 #[cfg(test)]
