@@ -405,11 +405,20 @@ fn fast_face(body: &mut Body<'_>, signed: bool, vertex_count: usize, out: &mut V
         }
         face[k] = v as i32;
     }
+    push_polygon(out, &face, n);
+    body.pos += 1 + 4 * n;
+    true
+}
+
+/// Appends the first `n` of `face` as triangles when it is a triangle or
+/// a quad (which pbrt-v3 splits into (0, 1, 2) and (3, 0, 2)); returns
+/// whether it was.
+fn push_polygon(out: &mut Vec<i32>, face: &[i32; 4], n: usize) -> bool {
     match n {
         3 => out.extend_from_slice(&face[..3]),
-        _ => out.extend_from_slice(&[face[0], face[1], face[2], face[3], face[0], face[2]]),
+        4 => out.extend_from_slice(&[face[0], face[1], face[2], face[3], face[0], face[2]]),
+        _ => return false,
     }
-    body.pos += 1 + 4 * n;
     true
 }
 
@@ -462,13 +471,8 @@ fn read_faces(
                 face[filled] = v;
                 filled += 1;
             }
-            match n {
-                3 => mesh.indices.extend_from_slice(&face[..3]),
-                // pbrt-v3 splits a quad into (0, 1, 2) and (3, 0, 2).
-                4 => mesh
-                    .indices
-                    .extend_from_slice(&[face[0], face[1], face[2], face[3], face[0], face[2]]),
-                _ => *bad_faces.entry(n).or_default() += 1,
+            if !push_polygon(&mut mesh.indices, &face, n) {
+                *bad_faces.entry(n).or_default() += 1;
             }
         }
     }

@@ -312,12 +312,13 @@ fn sah_split(
             // are binned as the partition passes its primitives, which
             // spares the children a pass over them.
             let d = depth + 1;
-            let axes = || {
+            let axes = if n >= BINNED_FROM {
                 [Plan::of(count, &l, d, max_prims), Plan::of(n - count, &r, d, max_prims)]
                     .map(|plan| plan.axis())
+            } else {
+                [None, None]
             };
             let keep = |p: &PrimInfo| axis.bucket(p) <= b;
-            let axes = if n >= BINNED_FROM { axes() } else { [None, None] };
             let (mid, bins) = if axes.iter().any(Option::is_some) {
                 let mut binned =
                     Box::new(Binned { bins: [Bins::EMPTY; 2], wanted: axes.map(|a| a.is_some()) });
