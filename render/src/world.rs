@@ -158,12 +158,19 @@ impl World {
     /// written to `si` (left as it was on a miss).
     #[inline]
     pub fn intersect(&self, ray: &Ray, si: &mut SurfaceInteraction) -> Option<&Primitive> {
-        let mut r = *ray;
-        let mut best = self.aggregate.intersect(&r, si).map(|(t, prim)| {
-            r.t_max = t;
+        // The aggregate reads the caller's ray itself: a copy made here
+        // was stored in two 16-byte halves and read back from their seam
+        // (the direction, at byte 12), a load no store could forward.
+        let mut t_best = None;
+        let mut best = self.aggregate.intersect(ray, si).map(|(t, prim)| {
+            t_best = Some(t);
             prim
         });
         if !self.instances.is_empty() {
+            let mut r = *ray;
+            if let Some(t) = t_best {
+                r.t_max = t;
+            }
             // Only hits closer than the best so far write `si`.
             self.instance_bvh.intersect(&r, |i, rr| {
                 let (t, prim) = self.instances[i].intersect(rr, si)?;
