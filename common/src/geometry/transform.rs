@@ -53,7 +53,7 @@ impl Transform {
         if r.w == 1.0 {
             r.truncate()
         } else {
-            r.truncate() / r.w
+            projected(r)
         }
     }
 
@@ -152,6 +152,16 @@ impl Transform {
         }
         out
     }
+}
+
+/// A homogeneous point divided by its w: out of line, so that the common
+/// w = 1 takes a branch. Inlined, the division was computed on every call
+/// and the result chosen after it, which put a division's latency on
+/// every transformed point (a sphere's ray in object space, above all).
+#[cold]
+#[inline(never)]
+fn projected(r: glam::Vec4) -> Vec3 {
+    r.truncate() / r.w
 }
 
 #[inline(always)]
