@@ -57,6 +57,18 @@ impl Transform {
         }
     }
 
+    /// [`Transform::point`] for a projective transform, whose w is rarely 1
+    /// (a perspective camera's raster to camera): the division inline.
+    #[inline]
+    pub fn point_projective(&self, p: Vec3) -> Vec3 {
+        let r = self.m * p.extend(1.0);
+        if r.w == 1.0 {
+            r.truncate()
+        } else {
+            r.truncate() / r.w
+        }
+    }
+
     /// A point and a conservative bound on the rounding error of the result.
     #[inline]
     pub fn point_with_error(&self, p: Vec3) -> (Vec3, Vec3) {

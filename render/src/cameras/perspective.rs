@@ -71,7 +71,8 @@ impl PerspectiveCamera {
     #[inline]
     pub fn generate_ray(&self, s: &CameraSample) -> (f32, Ray) {
         let b = &self.base;
-        let p_camera = b.camera_from_raster.point(Vec3::new(s.p_film.x, s.p_film.y, 0.0));
+        let p_camera =
+            b.camera_from_raster.point_projective(Vec3::new(s.p_film.x, s.p_film.y, 0.0));
         let mut ray = Ray::new(Vec3::ZERO, p_camera.normalize(), 0.0);
         if b.lens_radius > 0.0 {
             b.refocus(&mut ray, s.p_lens);
@@ -84,7 +85,8 @@ impl PerspectiveCamera {
     #[inline]
     pub fn generate_ray_differential(&self, s: &CameraSample) -> (f32, RayDifferential) {
         let b = &self.base;
-        let p_camera = b.camera_from_raster.point(Vec3::new(s.p_film.x, s.p_film.y, 0.0));
+        let p_camera =
+            b.camera_from_raster.point_projective(Vec3::new(s.p_film.x, s.p_film.y, 0.0));
         let mut ray = Ray::new(Vec3::ZERO, p_camera.normalize(), 0.0);
         if b.lens_radius > 0.0 {
             b.refocus(&mut ray, s.p_lens);
