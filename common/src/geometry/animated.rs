@@ -227,8 +227,9 @@ impl AnimatedTransform {
         }
     }
 
-    /// A ray and its differentials transformed at the ray's time.
-    #[inline]
+    /// A ray and its differentials transformed at the ray's time. Always
+    /// inlined, as [`Transform::ray_differential`] is.
+    #[inline(always)]
     pub fn ray_differential(&self, r: &RayDifferential) -> RayDifferential {
         match self.key(r.ray.time) {
             Some(t) => t.ray_differential(r),
