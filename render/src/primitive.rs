@@ -6,6 +6,7 @@ use crate::accel::{any_in_leaf, closest_in_leaf, Bvh};
 use crate::interaction::SurfaceInteraction;
 use crate::shapes::{triangle4, Shape, TriRay, Triangle};
 use farm_common::geometry::{AnimatedTransform, Bounds3f, Ray, Transform};
+use glam::Vec3A;
 use std::sync::Arc;
 
 /// A shape with what shades it.
@@ -128,7 +129,10 @@ impl Aggregate {
     pub fn intersect(&self, ray: &Ray, si: &mut SurfaceInteraction) -> Option<(f32, &Primitive)> {
         // A triangle's interaction is built for the closest hit only, from
         // its barycentrics; other shapes build theirs as they are hit.
-        let mut best: Option<(f32, usize, Option<[f32; 3]>)> = None;
+        // The barycentrics as one 16-byte lane group: kept as three floats,
+        // they were stored in pieces of 4 and 8 bytes and read back across
+        // them, a load no store could forward.
+        let mut best: Option<(f32, usize, Option<Vec3A>)> = None;
         let tr = TriRay::new(ray);
         self.bvh.intersect_leaves(
             ray,
@@ -140,7 +144,7 @@ impl Aggregate {
                 if prims.len() >= triangle4::FEWEST {
                     if let Some(q) = triangle4::test(&self.prims[prims.clone()], r, &tr, false) {
                         return q.accept(r, |k| {
-                            best = Some((q.t[k], prims.start + k, Some(q.barycentrics(k))));
+                            best = Some((q.t[k], prims.start + k, Some(Vec3A::from(q.barycentrics(k)))));
                         });
                     }
                 }
@@ -153,7 +157,7 @@ impl Aggregate {
                             Shape::Triangle { mesh, v } => {
                                 let (t, b) = Triangle { mesh, v: *v }
                                     .hit_barycentrics_prepared(r, &tr, true)?;
-                                (t, Some(b))
+                                (t, Some(Vec3A::from(b)))
                             }
                             shape => {
                                 let t = shape.intersect_into(r, si)?;
@@ -170,7 +174,7 @@ impl Aggregate {
         let prim = &self.prims[i];
         if let Some(b) = barycentrics {
             // Barycentrics are only ever recorded for a triangle.
-            prim.shape.triangle()?.interaction_into(ray, b, si);
+            prim.shape.triangle()?.interaction_into(ray, b.to_array(), si);
         }
         si.prim = i as u32;
         Some((t, prim))
