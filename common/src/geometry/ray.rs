@@ -1,14 +1,22 @@
 use glam::Vec3;
 
 /// A ray `o + t·d` for `t` in `(0, t_max)`, at a time within the shutter.
+///
+/// Laid out as two 16-byte halves, the origin and `t_max`, then the
+/// direction and the time: a copied ray is stored a half at a time, and a
+/// load of the origin or the direction then comes from one store. With the
+/// direction at byte 12, across the seam, no store could forward it, and
+/// every walk of a copied ray (an instance's, a shortened one) began by
+/// waiting for it.
 #[derive(Clone, Copy, Debug, PartialEq)]
+#[repr(C, align(16))]
 pub struct Ray {
     /// Origin.
     pub o: Vec3,
-    /// Direction (not necessarily normalised).
-    pub d: Vec3,
     /// The far end of the segment; intersection routines shrink it.
     pub t_max: f32,
+    /// Direction (not necessarily normalised).
+    pub d: Vec3,
     /// Time of the ray, for moving geometry.
     pub time: f32,
 }
