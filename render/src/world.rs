@@ -158,9 +158,9 @@ impl World {
     /// written to `si` (left as it was on a miss).
     #[inline]
     pub fn intersect(&self, ray: &Ray, si: &mut SurfaceInteraction) -> Option<&Primitive> {
-        // The aggregate reads the caller's ray itself: a copy made here
-        // was stored in two 16-byte halves and read back from their seam
-        // (the direction, at byte 12), a load no store could forward.
+        // The aggregate reads the caller's ray itself, not a copy: loads
+        // of a fresh copy wait for its stores unless each load lies within
+        // one store.
         let mut t_best = None;
         let mut best = self.aggregate.intersect(ray, si).map(|(t, prim)| {
             t_best = Some(t);
