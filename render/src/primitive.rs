@@ -144,7 +144,11 @@ impl Aggregate {
                 if prims.len() >= triangle4::FEWEST {
                     if let Some(q) = triangle4::test(&self.prims[prims.clone()], r, &tr, false) {
                         return q.accept(r, |k| {
-                            best = Some((q.t[k], prims.start + k, Some(Vec3A::from(q.barycentrics(k)))));
+                            best = Some((
+                                q.t[k],
+                                prims.start + k,
+                                Some(Vec3A::from(q.barycentrics(k))),
+                            ));
                         });
                     }
                 }

@@ -218,8 +218,10 @@ impl AnimatedTransform {
             .compose(&Transform::new(Mat4::from_cols_array(&s)))
     }
 
-    /// A ray transformed at its own time.
-    #[inline]
+    /// A ray transformed at its own time. Always inlined (a camera's, once
+    /// a camera ray): out of line, the ray came through memory and its
+    /// direction was loaded wider than the camera had stored it.
+    #[inline(always)]
     pub fn ray(&self, r: &Ray) -> Ray {
         match self.key(r.time) {
             Some(t) => t.ray(r),

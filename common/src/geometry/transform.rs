@@ -216,6 +216,28 @@ mod tests {
         }
     }
 
+    /// Both forms of the point transform give the same bits, w = 1 or not,
+    /// and a projective one divides by w.
+    #[test]
+    fn point_forms_agree_and_divide_by_w() {
+        let affine = Transform::new(Mat4::from_rotation_y(0.4) * Mat4::from_translation(Vec3::X));
+        // pbrt-v3's perspective divide: w = z.
+        let (z, w) = (glam::Vec4::new(0.0, 0.0, 1.001, 1.0), glam::Vec4::new(0.0, 0.0, -0.01, 0.0));
+        let projective = Transform::new(Mat4::from_cols(glam::Vec4::X, glam::Vec4::Y, z, w));
+        let points =
+            [Vec3::new(0.3, -2.0, 5.0), Vec3::new(1e4, 7.0, -3e3), Vec3::new(0.5, 0.5, 1.0)];
+        for t in [affine, projective] {
+            for p in points {
+                let (a, b) = (t.point(p), t.point_projective(p));
+                assert_eq!(a.to_array().map(f32::to_bits), b.to_array().map(f32::to_bits));
+                let h = t.m * p.extend(1.0);
+                assert_eq!(a, if h.w == 1.0 { h.truncate() } else { h.truncate() / h.w });
+            }
+        }
+        let h = projective.m * points[0].extend(1.0);
+        assert_ne!(h.w, 1.0);
+    }
+
     #[test]
     fn compose_and_inverse_round_trip() {
         let a = Transform::new(Mat4::from_rotation_x(1.0) * Mat4::from_scale(Vec3::splat(2.0)));
