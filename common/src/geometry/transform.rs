@@ -57,8 +57,9 @@ impl Transform {
         }
     }
 
-    /// [`Transform::point`] for a projective transform, whose w is rarely 1
-    /// (a perspective camera's raster to camera): the division inline.
+    /// [`Transform::point`] for a projective transform, whose w is almost
+    /// never 1 (a perspective camera's raster to camera, a projection
+    /// light's projection): the division inline.
     #[inline]
     pub fn point_projective(&self, p: Vec3) -> Vec3 {
         let r = self.m * p.extend(1.0);
@@ -139,7 +140,7 @@ impl Transform {
     }
 
     /// A ray with its differentials. Always inlined (a camera's, once a
-    /// camera ray): out of line, the 100-byte differential ray went to it
+    /// camera ray): out of line, the 96-byte differential ray went to it
     /// and came back through memory.
     #[inline(always)]
     pub fn ray_differential(&self, r: &RayDifferential) -> RayDifferential {

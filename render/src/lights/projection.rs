@@ -72,7 +72,7 @@ impl ProjectionLight {
         if wl.z < HITHER {
             return Spectrum::ZERO;
         }
-        let p = self.projection.point(wl);
+        let p = self.projection.point_projective(wl);
         let (lo, hi) = (self.screen_min, self.screen_max);
         if !(p.x >= lo.x && p.x <= hi.x && p.y >= lo.y && p.y <= hi.y) {
             return Spectrum::ZERO;
