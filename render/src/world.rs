@@ -161,14 +161,11 @@ impl World {
         // The aggregate reads the caller's ray itself, not a copy: loads
         // of a fresh copy wait for its stores unless each load lies within
         // one store.
-        let mut t_best = None;
-        let mut best = self.aggregate.intersect(ray, si).map(|(t, prim)| {
-            t_best = Some(t);
-            prim
-        });
+        let hit = self.aggregate.intersect(ray, si);
+        let mut best = hit.map(|(_, prim)| prim);
         if !self.instances.is_empty() {
             let mut r = *ray;
-            if let Some(t) = t_best {
+            if let Some((t, _)) = hit {
                 r.t_max = t;
             }
             // Only hits closer than the best so far write `si`.
