@@ -6,6 +6,7 @@
 
 use farm_common::geometry::Vec2;
 use farm_common::rng::{Rng, ONE_MINUS_EPSILON};
+use std::ops::BitXor;
 
 /// Number of primes with digit permutations (pbrt-v3 `PrimeTableSize`).
 pub const PRIME_TABLE_SIZE: usize = 1000;
@@ -257,19 +258,24 @@ pub fn inverse_radical_inverse(base: u64, mut inverse: u64, n_digits: u32) -> u6
     index
 }
 
-/// The product of generator matrix `c` (columns) and the bits of `a` over GF(2).
-#[inline]
-pub fn multiply_generator(c: &[u32], mut a: u32) -> u32 {
-    let mut v = 0u32;
-    let mut i = 0;
+/// The XOR of `columns[k]` over the set bits `k` of `a`: a generator
+/// matrix times a vector over GF(2). It visits the set bits only, lowest
+/// first; a test on every bit of a sample index is a branch the CPU
+/// mispredicts about half the time. Panics if a set bit has no column.
+#[inline(always)]
+pub fn xor_columns<T: Copy + Default + BitXor<Output = T>>(columns: &[T], mut a: u64) -> T {
+    let mut v = T::default();
     while a != 0 {
-        if a & 1 != 0 {
-            v ^= c[i];
-        }
-        a >>= 1;
-        i += 1;
+        v = v ^ columns[a.trailing_zeros() as usize];
+        a &= a - 1;
     }
     v
+}
+
+/// The product of generator matrix `c` (columns) and the bits of `a` over GF(2).
+#[inline]
+pub fn multiply_generator(c: &[u32], a: u32) -> u32 {
+    xor_columns(c, u64::from(a))
 }
 
 /// `2^-32` as pbrt-v3 writes it.

@@ -145,3 +145,12 @@ fn gray_code_samples_cover_strata() {
     assert_eq!(gray_code(5), 7);
     assert_eq!(multiply_generator(&C_SOBOL_1, 3), C_SOBOL_1[0] ^ C_SOBOL_1[1]);
 }
+
+#[test]
+fn a_generator_matrix_times_every_bit() {
+    let mut rng = Rng::new(3);
+    for a in (0..200).map(|_| rng.uniform_u32()).chain([0, 1, u32::MAX, 1 << 31]) {
+        let want = (0..32).filter(|k| a >> k & 1 != 0).fold(0, |v, k| v ^ C_SOBOL_1[k]);
+        assert_eq!(multiply_generator(&C_SOBOL_1, a), want, "{a:#x}");
+    }
+}

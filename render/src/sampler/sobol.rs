@@ -16,6 +16,7 @@
 //! by a fixed hash of `d`: deterministic and still stratified per
 //! dimension, but not pbrt-v3's values.
 
+use super::lowdiscrepancy::xor_columns;
 use super::pixel::{GlobalSampler, GlobalSequence};
 use super::sobolmatrices::{NUM_SOBOL_DIMENSIONS, SOBOL_MATRICES_32, SOBOL_MATRIX_SIZE};
 use farm_common::geometry::{Bounds2i, Point2i};
@@ -86,12 +87,18 @@ pub fn sobol_sample(mut a: i64, dim: usize) -> f32 {
         (2 + (dim - 2) % (NUM_SOBOL_DIMENSIONS - 2), (h >> 32) as u32)
     };
     let mut i = dim * SOBOL_MATRIX_SIZE;
-    while a != 0 && i < SOBOL_MATRICES_32.len() {
-        if a & 1 != 0 {
-            v ^= SOBOL_MATRICES_32[i];
+    if (a as u64) < 1 << SOBOL_MATRIX_SIZE {
+        v ^= xor_columns(&SOBOL_MATRICES_32[i..i + SOBOL_MATRIX_SIZE], a as u64);
+    } else {
+        // pbrt-v3's loop runs on into the next dimensions' columns for
+        // indices of 2^52 and up (and negative ones), to the table's end.
+        while a != 0 && i < SOBOL_MATRICES_32.len() {
+            if a & 1 != 0 {
+                v ^= SOBOL_MATRICES_32[i];
+            }
+            a >>= 1;
+            i += 1;
         }
-        a >>= 1;
-        i += 1;
     }
     v as f32 * f32::from_bits(0x2f80_0000)
 }
@@ -117,31 +124,17 @@ impl Sobol {
     }
 
     /// pbrt-v3 `SobolIntervalToIndex`.
-    fn interval_to_index(&self, mut frame: u64, p: Point2i) -> u64 {
+    fn interval_to_index(&self, frame: u64, p: Point2i) -> u64 {
         let m = self.log2_resolution;
         if m == 0 {
             return 0;
         }
-        let mut index = frame << (2 * m);
-        let mut delta = 0u64;
-        let mut c = 0;
-        while frame != 0 && c < SOBOL_MATRIX_SIZE {
-            if frame & 1 != 0 {
-                delta ^= self.vdc.0[c];
-            }
-            frame >>= 1;
-            c += 1;
-        }
-        let mut b = (((p.x as u32 as u64) << m) | p.y as u32 as u64) ^ delta;
-        let mut c = 0;
-        while b != 0 && c < SOBOL_MATRIX_SIZE {
-            if b & 1 != 0 {
-                index ^= self.vdc.1[c];
-            }
-            b >>= 1;
-            c += 1;
-        }
-        index
+        // pbrt-v3's loops stop at the matrices' 52 columns.
+        const COLUMNS: u64 = (1 << SOBOL_MATRIX_SIZE) - 1;
+        let index = frame << (2 * m);
+        let delta = xor_columns(&self.vdc.0, frame & COLUMNS);
+        let b = (((p.x as u32 as u64) << m) | p.y as u32 as u64) ^ delta;
+        index ^ xor_columns(&self.vdc.1, b & COLUMNS)
     }
 }
 
@@ -203,6 +196,55 @@ mod tests {
                 let y = sobol_sample(idx, 1) * 32.0 + b.min.y as f32;
                 assert_eq!((math::floor(x) as i32, math::floor(y) as i32), (p.x, p.y), "{p:?} {n}");
             }
+        }
+    }
+
+    /// pbrt-v3's `SobolSample` loop, a test of every bit of the index.
+    fn sample_bit_by_bit(mut a: i64, dim: usize) -> u32 {
+        let (mut v, mut i) = (0u32, dim * SOBOL_MATRIX_SIZE);
+        while a != 0 && i < SOBOL_MATRICES_32.len() {
+            if a & 1 != 0 {
+                v ^= SOBOL_MATRICES_32[i];
+            }
+            a >>= 1;
+            i += 1;
+        }
+        v
+    }
+
+    #[test]
+    fn set_bits_give_the_bit_by_bit_values() {
+        let mut rng = farm_common::rng::Rng::new(7);
+        let mut indices = vec![0i64, 1, (1 << 52) - 1, 1 << 52, i64::MAX, -1, i64::MIN];
+        for bits in [8, 24, 40, 52, 53, 63] {
+            for _ in 0..50 {
+                let a = (u64::from(rng.uniform_u32()) << 32 | u64::from(rng.uniform_u32()))
+                    >> (64 - bits);
+                indices.push(a as i64);
+            }
+        }
+        for &a in &indices {
+            for dim in [0, 1, 2, 17, NUM_SOBOL_DIMENSIONS - 2, NUM_SOBOL_DIMENSIONS - 1] {
+                let want = sample_bit_by_bit(a, dim) as f32 * f32::from_bits(0x2f80_0000);
+                assert_eq!(sobol_sample(a, dim).to_bits(), want.to_bits(), "{a:#x} {dim}");
+            }
+        }
+        // The index of a pixel's sample, against the same loops written out.
+        let s = Sobol::new(Bounds2i::new(Point2i::new(0, 0), Point2i::new(700, 300)));
+        for (k, &a) in indices.iter().enumerate() {
+            let (frame, p) = (a as u64, Point2i::new(k as i32 % 700, k as i32 % 300));
+            let m = s.log2_resolution;
+            let (mut delta, mut f) = (0u64, frame);
+            for c in 0..SOBOL_MATRIX_SIZE {
+                delta ^= if f & 1 != 0 { s.vdc.0[c] } else { 0 };
+                f >>= 1;
+            }
+            let (mut index, mut b) = (frame << (2 * m), ((p.x as u64) << m | p.y as u64) ^ delta);
+            for c in 0..SOBOL_MATRIX_SIZE {
+                index ^= if b & 1 != 0 { s.vdc.1[c] } else { 0 };
+                b >>= 1;
+            }
+            assert_eq!(s.interval_to_index(frame, p), index, "{frame:#x}");
         }
     }
 }
