@@ -47,11 +47,29 @@ fn lerp(t: f32, a: f32, b: f32) -> f32 {
     (1.0 - t) * a + t * b
 }
 
+/// `math::floor(x)` and that as an `i32` (saturating, NaN 0), the same
+/// bits; below 2^23 in magnitude, where truncation is exact, without the
+/// general floor's and conversion's range checks.
+#[inline(always)]
+fn floor_parts(x: f32) -> (f32, i32) {
+    // False for NaN.
+    if x.abs() < 8_388_608.0 {
+        let t = x as i32;
+        let i = t - i32::from(t as f32 > x);
+        // A negative x that truncates to 0 floors to -1, so only a zero
+        // result needs the sign, which `math::floor` takes from x.
+        ((i as f32).copysign(x), i)
+    } else {
+        let f = math::floor(x);
+        (f, f as i32)
+    }
+}
+
 /// Perlin noise at (x, y, z), in about [−1, 1].
 pub fn noise(x: f32, y: f32, z: f32) -> f32 {
-    let (fx, fy, fz) = (math::floor(x), math::floor(y), math::floor(z));
+    let ((fx, ix), (fy, iy), (fz, iz)) = (floor_parts(x), floor_parts(y), floor_parts(z));
     let (dx, dy, dz) = (x - fx, y - fy, z - fz);
-    let (ix, iy, iz) = ((fx as i32) & 255, (fy as i32) & 255, (fz as i32) & 255);
+    let (ix, iy, iz) = (ix & 255, iy & 255, iz & 255);
     let w000 = grad(ix, iy, iz, dx, dy, dz);
     let w100 = grad(ix + 1, iy, iz, dx - 1.0, dy, dz);
     let w010 = grad(ix, iy + 1, iz, dx, dy - 1.0, dz);
@@ -75,9 +93,35 @@ fn smooth_step(min: f32, max: f32, value: f32) -> f32 {
     v * v * (-2.0 * v + 3.0)
 }
 
+/// How many octaves the footprint `dpdx`, `dpdy` can show, at most
+/// `max_octaves` (pbrt-v3's `Clamp(-1 - .5 Log2(len2), 0, maxOctaves)`,
+/// which gives `maxOctaves` where that is below 0).
+#[inline]
 fn octaves(dpdx: Vec3, dpdy: Vec3, max_octaves: i32) -> f32 {
     let len2 = dpdx.length_squared().max(dpdy.length_squared());
-    (-1.0 - 0.5 * math::log2(len2)).clamp(0.0, max_octaves as f32)
+    let max = max_octaves as f32;
+    // Footprints far below or above the octaves' range clamp whatever
+    // log2's last bit: at most 2^(-2 max - 4) gives max + 1 or more, at
+    // least 1/2 gives -1/2 or less. They skip the logarithm.
+    let tiny = if (0..=61).contains(&max_octaves) {
+        f32::from_bits(((127 - 4 - 2 * max_octaves) as u32) << 23)
+    } else {
+        0.0
+    };
+    let n = if len2 <= tiny {
+        f32::INFINITY
+    } else if len2 >= 0.5 {
+        f32::NEG_INFINITY
+    } else {
+        -1.0 - 0.5 * math::log2(len2)
+    };
+    if n < 0.0 {
+        0.0
+    } else if n > max {
+        max
+    } else {
+        n
+    }
 }
 
 /// Antialiased fractional Brownian motion.
@@ -91,8 +135,21 @@ pub fn fbm(p: Vec3, dpdx: Vec3, dpdy: Vec3, omega: f32, max_octaves: i32) -> f32
         lambda *= 1.99;
         o *= omega;
     }
-    let q = lambda * p;
-    sum + o * smooth_step(0.3, 0.7, n - n_int as f32) * noise(q.x, q.y, q.z)
+    let w = smooth_step(0.3, 0.7, n - n_int as f32);
+    sum + o * w * unless_weightless(w, lambda * p)
+}
+
+/// `noise(q)`, or 0 where its weight `w` is 0 and it is finite: the
+/// fractional octave of a footprint with a whole number of octaves, which
+/// adds ±0 to a sum that is never -0 (or NaN, when the octave's scale is
+/// infinite, either way).
+#[inline]
+fn unless_weightless(w: f32, q: Vec3) -> f32 {
+    if w == 0.0 && q.is_finite() {
+        0.0
+    } else {
+        noise(q.x, q.y, q.z)
+    }
 }
 
 /// Antialiased turbulence (sum of |noise|).
@@ -106,8 +163,8 @@ pub fn turbulence(p: Vec3, dpdx: Vec3, dpdy: Vec3, omega: f32, max_octaves: i32)
         lambda *= 1.99;
         o *= omega;
     }
-    let q = lambda * p;
-    sum += o * lerp(smooth_step(0.3, 0.7, n - n_int as f32), 0.2, noise(q.x, q.y, q.z).abs());
+    let w = smooth_step(0.3, 0.7, n - n_int as f32);
+    sum += o * lerp(w, 0.2, unless_weightless(w, lambda * p).abs());
     for _ in n_int..max_octaves {
         sum += o * 0.2;
         o *= omega;
@@ -118,6 +175,84 @@ pub fn turbulence(p: Vec3, dpdx: Vec3, dpdy: Vec3, omega: f32, max_octaves: i32)
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn floor_parts_are_the_floor_and_its_integer() {
+        let mut xs = vec![0.0f32, -0.0, 0.5, -0.5, 1.0, -1.0, -1e-30, 8_388_607.5, -8_388_607.5];
+        xs.extend([8_388_608.0, -8_388_608.0, 3e9, -3e9, f32::MAX, f32::INFINITY, f32::NAN]);
+        xs.extend([f32::NEG_INFINITY, f32::MIN_POSITIVE, -f32::MIN_POSITIVE]);
+        let mut x = -70_000.0f32;
+        while x < 70_000.0 {
+            xs.extend([x, x.next_up(), x.next_down()]);
+            x += 137.37;
+        }
+        for x in xs {
+            let (f, i) = floor_parts(x);
+            let want = math::floor(x);
+            assert_eq!(f.to_bits(), want.to_bits(), "{x}");
+            assert_eq!(i, want as i32, "{x}");
+        }
+    }
+
+    /// pbrt-v3's `FBm` and `Turbulence` as written: the logarithm always,
+    /// every octave's noise, and its `Clamp`.
+    fn pbrt_fbm_turbulence(p: Vec3, dx: Vec3, dy: Vec3, omega: f32, max: i32) -> (f32, f32) {
+        let pbrt_clamp = |v: f32, lo: f32, hi: f32| {
+            if v < lo {
+                lo
+            } else if v > hi {
+                hi
+            } else {
+                v
+            }
+        };
+        let len2 = dx.length_squared().max(dy.length_squared());
+        let n = pbrt_clamp(-1.0 - 0.5 * math::log2(len2), 0.0, max as f32);
+        let n_int = math::floor(n) as i32;
+        let (mut f, mut t, mut lambda, mut o) = (0.0, 0.0, 1.0, 1.0);
+        for _ in 0..n_int {
+            let v = noise(lambda * p.x, lambda * p.y, lambda * p.z);
+            f += o * v;
+            t += o * v.abs();
+            lambda *= 1.99;
+            o *= omega;
+        }
+        let w = smooth_step(0.3, 0.7, n - n_int as f32);
+        let v = noise(lambda * p.x, lambda * p.y, lambda * p.z);
+        f += o * w * v;
+        t += o * lerp(w, 0.2, v.abs());
+        for _ in n_int..max {
+            t += o * 0.2;
+            o *= omega;
+        }
+        (f, t)
+    }
+
+    #[test]
+    fn fbm_and_turbulence_keep_pbrts_bits_and_take_any_octave_count() {
+        let mut rng = farm_common::rng::Rng::new(5);
+        let mut u = || rng.uniform_f32() * 2.0 - 1.0;
+        for k in 0..4000 {
+            let p = Vec3::new(u(), u(), u()) * [1.0, 37.0, 1e5, f32::INFINITY][k % 4].min(1e30);
+            // Footprints from far below one octave's scale to far above it.
+            let s = 2f32.powi((k % 48) as i32 - 40) * (1.0 + u().abs());
+            let (dx, dy) = (Vec3::new(u(), u(), u()) * s, Vec3::new(u(), 0.0, u()) * s);
+            let omega = [0.5, 0.6, -0.7, 1e30][k % 4];
+            for max in [-3, 0, 1, 6, 8, 61, 62, 200] {
+                let (f, t) = pbrt_fbm_turbulence(p, dx, dy, omega, max);
+                // The same bits, or NaN for NaN (whose sign the compiler may
+                // change by swapping an addition's operands).
+                let same = |a: f32, b: f32| a.to_bits() == b.to_bits() || a.is_nan() && b.is_nan();
+                let (f2, t2) = (fbm(p, dx, dy, omega, max), turbulence(p, dx, dy, omega, max));
+                let args = format!("{p} {dx} {dy} {omega} {max}");
+                assert!(same(f2, f), "fbm {args}: {f2} against {f}");
+                assert!(same(t2, t), "turbulence {args}: {t2} against {t}");
+            }
+        }
+        let nan = Vec3::splat(f32::NAN);
+        assert!(fbm(Vec3::ONE, nan, nan, 0.5, 8).is_nan());
+        assert_eq!(fbm(Vec3::splat(0.3), Vec3::ZERO, Vec3::ZERO, 0.5, -1), 0.0);
+    }
 
     #[test]
     fn noise_vanishes_on_lattice_and_is_bounded() {
