@@ -194,6 +194,21 @@ pub fn ceil<T: Real>(x: T) -> T {
     x.round_up()
 }
 
+/// pbrt-v3's `Clamp`: `low` below it, `high` above it, else `val`.
+/// Unlike `f32::clamp` it never panics: bounds from a scene may be
+/// reversed (`high < low` gives `low` below `low` and `high` from there)
+/// or NaN (then ignored).
+#[inline]
+pub fn clamp(val: f32, low: f32, high: f32) -> f32 {
+    if val < low {
+        low
+    } else if val > high {
+        high
+    } else {
+        val
+    }
+}
+
 /// `floor(x) as i64`, saturating (NaN is 0), without the round trip
 /// through a float.
 #[inline(always)]

@@ -91,8 +91,9 @@ impl Sphere {
         Sphere {
             placement,
             radius,
-            z_min: lo.clamp(-radius, radius),
-            z_max: hi.clamp(-radius, radius),
+            // pbrt-v3's Clamp: a negative radius reverses the bounds.
+            z_min: math::clamp(lo, -radius, radius),
+            z_max: math::clamp(hi, -radius, radius),
             theta_min: math::acos((lo / radius).clamp(-1.0, 1.0)),
             theta_max: math::acos((hi / radius).clamp(-1.0, 1.0)),
             phi_max: phi_max_deg.clamp(0.0, 360.0).to_radians(),
@@ -480,5 +481,17 @@ mod tests {
             }
             assert!(hits > 500 && checked == hits, "{hits}");
         }
+    }
+
+    /// A negative radius reverses pbrt-v3's clamp of the z clips: its
+    /// `Clamp` gives the low bound below it and the high one above, where
+    /// `f32::clamp` panicked.
+    #[test]
+    fn a_negative_radius_clamps_as_pbrt_does() {
+        let t = Transform::new(Mat4::IDENTITY);
+        let s = Sphere::new(Placement::new(&t, false), -1.0, 1.0, 0.5, 360.0);
+        assert_eq!((s.z_min, s.z_max), (1.0, -1.0));
+        let s = Sphere::new(Placement::new(&t, false), f32::NAN, -1.0, 1.0, 360.0);
+        assert_eq!((s.z_min, s.z_max), (-1.0, 1.0));
     }
 }

@@ -115,13 +115,7 @@ fn octaves(dpdx: Vec3, dpdy: Vec3, max_octaves: i32) -> f32 {
     } else {
         -1.0 - 0.5 * math::log2(len2)
     };
-    if n < 0.0 {
-        0.0
-    } else if n > max {
-        max
-    } else {
-        n
-    }
+    math::clamp(n, 0.0, max)
 }
 
 /// Antialiased fractional Brownian motion.
@@ -197,17 +191,8 @@ mod tests {
     /// pbrt-v3's `FBm` and `Turbulence` as written: the logarithm always,
     /// every octave's noise, and its `Clamp`.
     fn pbrt_fbm_turbulence(p: Vec3, dx: Vec3, dy: Vec3, omega: f32, max: i32) -> (f32, f32) {
-        let pbrt_clamp = |v: f32, lo: f32, hi: f32| {
-            if v < lo {
-                lo
-            } else if v > hi {
-                hi
-            } else {
-                v
-            }
-        };
         let len2 = dx.length_squared().max(dy.length_squared());
-        let n = pbrt_clamp(-1.0 - 0.5 * math::log2(len2), 0.0, max as f32);
+        let n = math::clamp(-1.0 - 0.5 * math::log2(len2), 0.0, max as f32);
         let n_int = math::floor(n) as i32;
         let (mut f, mut t, mut lambda, mut o) = (0.0, 0.0, 1.0, 1.0);
         for _ in 0..n_int {
