@@ -413,22 +413,24 @@ impl Triangle<'_> {
         (self.sample_point(u), 1.0 / self.area())
     }
 
-    /// A uniform point, with its normal and error bound.
+    /// A uniform point, with its normal and error bound (pbrt-v3
+    /// `Triangle::Sample`): the geometric normal, turned to the side of the
+    /// interpolated shading normal where the mesh has normals and else
+    /// oriented as [`Triangle::intersect`] orients it.
     #[inline(always)]
     pub fn sample_point(&self, u: Vec2) -> Interaction {
         let b = uniform_sample_triangle(u);
         let (p0, p1, p2) = self.points();
         let b2 = 1.0 - b.x - b.y;
         let p = b.x * p0 + b.y * p1 + b2 * p2;
-        let mut n = match &self.mesh.n {
-            Some(n) => (b.x * n[self.v[0] as usize]
-                + b.y * n[self.v[1] as usize]
-                + b2 * n[self.v[2] as usize])
-                .normalize(),
-            None => (p1 - p0).cross(p2 - p0).normalize(),
-        };
-        if self.mesh.reverse_orientation {
-            n = -n;
+        let mut n = (p1 - p0).cross(p2 - p0).normalize();
+        match &self.mesh.n {
+            Some(ns) => {
+                let [i0, i1, i2] = self.v.map(|i| i as usize);
+                n = face_forward(n, b.x * ns[i0] + b.y * ns[i1] + b2 * ns[i2]);
+            }
+            None if self.mesh.reverse_orientation ^ self.mesh.transform_swaps_handedness => n = -n,
+            None => {}
         }
         let abs_sum = (b.x * p0).abs() + (b.y * p1).abs() + (b2 * p2).abs();
         Interaction { p, p_error: gamma(6) * abs_sum, n, time: 0.0 }
