@@ -20,13 +20,15 @@ pub struct DiffuseAreaLight {
     /// private, so that only [`DiffuseAreaLight::new`] makes a light and it
     /// always matches `shape`.
     inv_area: f32,
+    /// [`Shape::light_normal`], worked out once in the same way.
+    geometric_normal: Vec3,
 }
 
 impl DiffuseAreaLight {
     /// The light of `shape` emitting `l_emit`.
     pub fn new(l_emit: Spectrum, shape: Shape, two_sided: bool) -> Self {
-        let inv_area = 1.0 / shape.area();
-        DiffuseAreaLight { l_emit, shape, two_sided, inv_area }
+        let (inv_area, geometric_normal) = (1.0 / shape.area(), shape.light_normal());
+        DiffuseAreaLight { l_emit, shape, two_sided, inv_area, geometric_normal }
     }
 
     /// Radiance leaving point `it` of the shape in direction `w`.
@@ -42,7 +44,8 @@ impl DiffuseAreaLight {
     /// Samples a point on the shape as seen from `r`.
     #[inline]
     pub fn sample_li(&self, r: &Interaction, u: Vec2) -> Option<LightSample> {
-        let (p_shape, pdf) = self.shape.sample_from_light(r, u, self.inv_area)?;
+        let (p_shape, pdf) =
+            self.shape.sample_from_light(r, u, self.inv_area, self.geometric_normal)?;
         let d = p_shape.p - r.p;
         if pdf == 0.0 || d.length_squared() == 0.0 {
             return None;

@@ -178,21 +178,33 @@ impl Shape {
 
     /// [`Shape::sample_from`] for an area light that keeps its shape's
     /// `inv_area` (1 / [`Shape::area`], the density [`Shape::sample_area`]
-    /// gives): a triangle's point is sampled without working out its area
-    /// again (a cross product, a square root and a division a sample).
+    /// gives) and, for a triangle, its [`Triangle::geometric_normal`]: a
+    /// triangle's point is sampled without working out its area or its
+    /// plane again (two cross products, two square roots and two divisions
+    /// a sample).
     #[inline(always)]
     pub fn sample_from_light(
         &self,
         reference: &Interaction,
         u: Vec2,
         inv_area: f32,
+        geometric_normal: Vec3,
     ) -> Option<(Interaction, f32)> {
         match self {
             Shape::Triangle { mesh, v } => {
-                let it = Triangle { mesh, v: *v }.sample_point(u);
+                let it = Triangle { mesh, v: *v }.sample_point_facing(u, geometric_normal);
                 area_to_solid_angle(reference, it, inv_area)
             }
             _ => self.sample_from(reference, u),
+        }
+    }
+
+    /// What [`Shape::sample_from_light`] takes as `geometric_normal`: a
+    /// triangle's [`Triangle::geometric_normal`], zero for other shapes.
+    pub fn light_normal(&self) -> Vec3 {
+        match self {
+            Shape::Triangle { mesh, v } => Triangle { mesh, v: *v }.geometric_normal(),
+            _ => Vec3::ZERO,
         }
     }
 

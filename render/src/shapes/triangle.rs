@@ -419,11 +419,26 @@ impl Triangle<'_> {
     /// oriented as [`Triangle::intersect`] orients it.
     #[inline(always)]
     pub fn sample_point(&self, u: Vec2) -> Interaction {
+        self.sample_point_facing(u, self.geometric_normal())
+    }
+
+    /// The unit normal of the triangle's plane, `(p1 − p0) × (p2 − p0)`
+    /// normalized, before any flip.
+    #[inline(always)]
+    pub fn geometric_normal(&self) -> Vec3 {
+        let (p0, p1, p2) = self.points();
+        (p1 - p0).cross(p2 - p0).normalize()
+    }
+
+    /// [`Triangle::sample_point`] given the [`Triangle::geometric_normal`]
+    /// (which an area light works out once).
+    #[inline(always)]
+    pub fn sample_point_facing(&self, u: Vec2, geometric_normal: Vec3) -> Interaction {
         let b = uniform_sample_triangle(u);
         let (p0, p1, p2) = self.points();
         let b2 = 1.0 - b.x - b.y;
         let p = b.x * p0 + b.y * p1 + b2 * p2;
-        let mut n = (p1 - p0).cross(p2 - p0).normalize();
+        let mut n = geometric_normal;
         match &self.mesh.n {
             Some(ns) => {
                 let [i0, i1, i2] = self.v.map(|i| i as usize);
