@@ -409,3 +409,38 @@ mod samplers {
 /// EWA lookups in a MIP map.
 #[path = "kernels/mipmap.rs"]
 mod mipmap;
+
+/// Perlin noise and the textures built on it: `N` points each, at
+/// footprints that show every octave (fbm and turbulence at 8 octaves, the
+/// default).
+mod noise {
+    use super::*;
+    use farm_render::textures::{fbm_noise, noise, turbulence};
+
+    fn points() -> Vec<Vec3> {
+        let mut rng = Rng::new(21);
+        (0..N).map(|_| v3(&mut rng, -40.0, 40.0)).collect()
+    }
+
+    #[divan::bench]
+    fn perlin(bencher: Bencher) {
+        let p = points();
+        bencher.counter(ItemsCount::new(N)).bench_local(|| {
+            for q in black_box(&p) {
+                black_box(noise(q.x, q.y, q.z));
+            }
+        });
+    }
+
+    /// `fbm` and `turbulence` at a footprint of 2^-12: all eight octaves.
+    #[divan::bench(args = ["fbm", "turbulence"])]
+    fn octaves(bencher: Bencher, name: &str) {
+        let (p, d) = (points(), Vec3::splat(1.0 / 4096.0));
+        let f = if name == "fbm" { fbm_noise } else { turbulence };
+        bencher.counter(ItemsCount::new(N)).bench_local(|| {
+            for &q in black_box(&p) {
+                black_box(f(q, d, d, 0.5, 8));
+            }
+        });
+    }
+}

@@ -35,7 +35,7 @@ fn grad(x: i32, y: i32, z: i32, dx: f32, dy: f32, dz: f32) -> f32 {
     (if h & 1 != 0 { -u } else { u }) + (if h & 2 != 0 { -v } else { v })
 }
 
-#[inline]
+#[inline(always)]
 fn weight(t: f32) -> f32 {
     let t3 = t * t * t;
     let t4 = t3 * t;
@@ -65,8 +65,41 @@ fn floor_parts(x: f32) -> (f32, i32) {
     }
 }
 
-/// Perlin noise at (x, y, z), in about [−1, 1].
+/// Perlin noise at (x, y, z), in about [−1, 1]: [`noise_scalar`]'s bits
+/// (NaN for NaN), its eight corners' gradients in two SSE vectors.
+#[cfg(target_arch = "x86_64")]
 pub fn noise(x: f32, y: f32, z: f32) -> f32 {
+    let ((fx, ix), (fy, iy), (fz, iz)) = (floor_parts(x), floor_parts(y), floor_parts(z));
+    let d = [x - fx, y - fy, z - fz];
+    sse::blend(d, hashes(ix & 255, iy & 255, iz & 255))
+}
+
+/// Perlin noise at (x, y, z), in about [−1, 1].
+#[cfg(not(target_arch = "x86_64"))]
+pub fn noise(x: f32, y: f32, z: f32) -> f32 {
+    noise_scalar(x, y, z)
+}
+
+/// The gradient indices (`h` of [`grad`]) of the eight corners of the
+/// lattice cell at `ix`, `iy`, `iz`: the corners at x offset 0, then 1,
+/// each in (y, z) offsets (0, 0), (1, 0), (0, 1), (1, 1).
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
+fn hashes(ix: i32, iy: i32, iz: i32) -> [[i32; 4]; 2] {
+    let at = |px: i32| {
+        let (p0, p1) = (perm(px + iy), perm(px + iy + 1));
+        [p0 + iz, p1 + iz, p0 + iz + 1, p1 + iz + 1].map(|i| perm(i) & 15)
+    };
+    [at(perm(ix)), at(perm(ix + 1))]
+}
+
+#[cfg(target_arch = "x86_64")]
+#[path = "noise_sse.rs"]
+mod sse;
+
+/// pbrt-v3's `Noise` as written, a corner at a time.
+#[cfg_attr(target_arch = "x86_64", allow(dead_code))]
+fn noise_scalar(x: f32, y: f32, z: f32) -> f32 {
     let ((fx, ix), (fy, iy), (fz, iz)) = (floor_parts(x), floor_parts(y), floor_parts(z));
     let (dx, dy, dz) = (x - fx, y - fy, z - fz);
     let (ix, iy, iz) = (ix & 255, iy & 255, iz & 255);
@@ -237,6 +270,40 @@ mod tests {
         let nan = Vec3::splat(f32::NAN);
         assert!(fbm(Vec3::ONE, nan, nan, 0.5, 8).is_nan());
         assert_eq!(fbm(Vec3::splat(0.3), Vec3::ZERO, Vec3::ZERO, 0.5, -1), 0.0);
+    }
+
+    /// `noise` against pbrt-v3's formula as written (`noise_scalar`): the
+    /// same bits, or NaN for NaN, in and around the cells of every
+    /// gradient index, on and near lattice points (where zeros' signs
+    /// matter), far out and at non-finite points.
+    #[test]
+    fn noise_gives_the_scalar_bits() {
+        let mut rng = farm_common::rng::Rng::new(9);
+        let mut u = || rng.uniform_f32();
+        let mut points = Vec::new();
+        for k in 0..200_000 {
+            let scale = [1.0, 8.0, 300.0, 1e5, 1e7, 3e9][k % 6];
+            points.push([u(), u(), u()].map(|v| (v * 2.0 - 1.0) * scale));
+        }
+        for k in 0..20_000 {
+            // Lattice points and their neighbours, with either zero.
+            let i = [u(), u(), u()].map(|v| ((v * 40.0) as i32 - 20) as f32);
+            let j = [u(), u(), u()].map(|v| (v * 3.0) as usize);
+            let at = |c: usize| [i[c], i[c].next_up(), i[c].next_down(), -0.0, 0.0][(j[c] + k) % 5];
+            points.push([at(0), at(1), at(2)]);
+        }
+        let odd = [f32::NAN, f32::INFINITY, f32::NEG_INFINITY, f32::MAX, -f32::MAX, 0.5];
+        for a in odd {
+            for b in odd {
+                points.push([a, b, 0.25]);
+                points.push([0.75, a, b]);
+            }
+        }
+        for [x, y, z] in points {
+            let (got, want) = (noise(x, y, z), noise_scalar(x, y, z));
+            let same = got.to_bits() == want.to_bits() || got.is_nan() && want.is_nan();
+            assert!(same, "noise({x}, {y}, {z}) = {got:e}, pbrt-v3's formula {want:e}");
+        }
     }
 
     #[test]
