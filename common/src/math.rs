@@ -306,6 +306,20 @@ mod tests {
         assert_eq!(sin(0.5f64).to_bits(), libm::sin(0.5).to_bits());
     }
 
+    /// `sin_cos` (libm's `sincosf`) gives `sinf`'s and `cosf`'s bits, so
+    /// code may take both at once where pbrt-v3 calls the two. Checked over
+    /// every 7th float once (0 differences in 613 million); here every
+    /// 4099th.
+    #[test]
+    fn sin_cos_is_sin_and_cos() {
+        let same = |a: f32, b: f32| a.to_bits() == b.to_bits() || a.is_nan() && b.is_nan();
+        for bits in (0..=u32::MAX).step_by(4099) {
+            let x = f32::from_bits(bits);
+            let (s, c) = sin_cos(x);
+            assert!(same(s, libm::sinf(x)) && same(c, libm::cosf(x)), "{x:e}");
+        }
+    }
+
     #[test]
     fn they_agree_with_the_platform_within_an_ulp_or_two() {
         #[allow(clippy::disallowed_methods)]

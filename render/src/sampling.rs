@@ -16,7 +16,8 @@ pub fn concentric_sample_disk(u: Vec2) -> Vec2 {
     } else {
         (o.y, FRAC_PI_2 - FRAC_PI_4 * (o.x / o.y))
     };
-    r * Vec2::new(math::cos(theta), math::sin(theta))
+    let (sin, cos) = math::sin_cos(theta);
+    r * Vec2::new(cos, sin)
 }
 
 /// A direction in the +z hemisphere with density cos θ / π.
@@ -38,8 +39,8 @@ pub fn cosine_hemisphere_pdf(cos_theta: f32) -> f32 {
 pub fn uniform_sample_hemisphere(u: Vec2) -> Vec3 {
     let z = u.x;
     let r = (1.0 - z * z).max(0.0).sqrt();
-    let phi = 2.0 * PI * u.y;
-    Vec3::new(r * math::cos(phi), r * math::sin(phi), z)
+    let (sin_phi, cos_phi) = math::sin_cos(2.0 * PI * u.y);
+    Vec3::new(r * cos_phi, r * sin_phi, z)
 }
 
 /// Density of [`uniform_sample_hemisphere`].
@@ -53,8 +54,8 @@ pub fn uniform_hemisphere_pdf() -> f32 {
 pub fn uniform_sample_sphere(u: Vec2) -> Vec3 {
     let z = 1.0 - 2.0 * u.x;
     let r = (1.0 - z * z).max(0.0).sqrt();
-    let phi = 2.0 * PI * u.y;
-    Vec3::new(r * math::cos(phi), r * math::sin(phi), z)
+    let (sin_phi, cos_phi) = math::sin_cos(2.0 * PI * u.y);
+    Vec3::new(r * cos_phi, r * sin_phi, z)
 }
 
 /// Density of [`uniform_sample_sphere`].
@@ -69,8 +70,8 @@ pub fn uniform_sphere_pdf() -> f32 {
 pub fn uniform_sample_cone(u: Vec2, cos_theta_max: f32) -> Vec3 {
     let cos_theta = (1.0 - u.x) + u.x * cos_theta_max;
     let sin_theta = (1.0 - cos_theta * cos_theta).max(0.0).sqrt();
-    let phi = u.y * 2.0 * PI;
-    Vec3::new(math::cos(phi) * sin_theta, math::sin(phi) * sin_theta, cos_theta)
+    let (sin_phi, cos_phi) = math::sin_cos(u.y * 2.0 * PI);
+    Vec3::new(cos_phi * sin_theta, sin_phi * sin_theta, cos_theta)
 }
 
 /// Density of [`uniform_sample_cone`].

@@ -36,7 +36,8 @@ pub fn schlick_r0_from_eta(eta: f32) -> f32 {
 #[inline]
 fn spherical_direction(sin_theta: f32, cos_theta: f32, phi: f32) -> Vec3 {
     let s = sin_theta.clamp(-1.0, 1.0);
-    Vec3::new(s * math::cos(phi), s * math::sin(phi), cos_theta.clamp(-1.0, 1.0))
+    let (sin_phi, cos_phi) = math::sin_cos(phi);
+    Vec3::new(s * cos_phi, s * sin_phi, cos_theta.clamp(-1.0, 1.0))
 }
 
 /// The half vector of `wo` and `wi`, or `None` when they cancel.

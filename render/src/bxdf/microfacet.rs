@@ -165,7 +165,8 @@ impl MicrofacetDistribution {
         };
         let cos_t = 1.0 / (1.0 + tan2).sqrt();
         let sin_t = (1.0 - cos_t * cos_t).max(0.0).sqrt();
-        let wh = Vec3::new(sin_t * math::cos(phi), sin_t * math::sin(phi), cos_t);
+        let (sin_phi, cos_phi) = math::sin_cos(phi);
+        let wh = Vec3::new(sin_t * cos_phi, sin_t * sin_phi, cos_t);
         if same_hemisphere(wo, wh) {
             wh
         } else {
@@ -204,8 +205,8 @@ fn visible_sample(
 fn trowbridge_reitz_sample11(cos_theta: f32, u1: f32, u2: f32) -> (f32, f32) {
     if cos_theta > 0.9999 {
         let r = (u1 / (1.0 - u1)).sqrt();
-        let phi = std::f32::consts::TAU * u2;
-        return (r * math::cos(phi), r * math::sin(phi));
+        let (sin_phi, cos_phi) = math::sin_cos(std::f32::consts::TAU * u2);
+        return (r * cos_phi, r * sin_phi);
     }
     let sin_theta = (1.0 - cos_theta * cos_theta).max(0.0).sqrt();
     let tan_theta = sin_theta / cos_theta;

@@ -134,7 +134,8 @@ impl Cylinder {
     pub fn sample_area(&self, u: Vec2) -> (Interaction, f32) {
         let z = (1.0 - u.x) * self.z_min + u.x * self.z_max;
         let phi = u.y * self.phi_max;
-        let mut p_obj = Vec3::new(self.radius * math::cos(phi), self.radius * math::sin(phi), z);
+        let (sin_phi, cos_phi) = math::sin_cos(phi);
+        let mut p_obj = Vec3::new(self.radius * cos_phi, self.radius * sin_phi, z);
         let pl = &self.placement;
         let mut n = pl.render_from_object.normal(Vec3::new(p_obj.x, p_obj.y, 0.0)).normalize();
         if pl.reverse_orientation {
