@@ -432,11 +432,14 @@ mod noise {
         });
     }
 
-    /// `fbm` and `turbulence` at a footprint of 2^-12: all eight octaves.
-    #[divan::bench(args = ["fbm", "turbulence"])]
+    /// `fbm` and `turbulence` at a footprint of 2^-12, which shows all
+    /// eight octaves, and `fbm` at one of 0.02, which shows 3.85 (so it
+    /// takes the logarithm and the fractional octave's noise).
+    #[divan::bench(args = ["fbm", "turbulence", "fbm-3.85"])]
     fn octaves(bencher: Bencher, name: &str) {
-        let (p, d) = (points(), Vec3::splat(1.0 / 4096.0));
-        let f = if name == "fbm" { fbm_noise } else { turbulence };
+        let d = Vec3::splat(if name == "fbm-3.85" { 0.02 } else { 1.0 / 4096.0 });
+        let p = points();
+        let f = if name == "turbulence" { turbulence } else { fbm_noise };
         bencher.counter(ItemsCount::new(N)).bench_local(|| {
             for &q in black_box(&p) {
                 black_box(f(q, d, d, 0.5, 8));

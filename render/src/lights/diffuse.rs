@@ -12,13 +12,14 @@ use farm_common::Spectrum;
 pub struct DiffuseAreaLight {
     /// Emitted radiance (`L` × `scale`).
     pub l_emit: Spectrum,
-    /// The emitting shape (render space).
-    pub shape: Shape,
+    /// The emitting shape (render space); private with what is worked out
+    /// from it below.
+    shape: Shape,
     /// `twosided`: emit from the back too.
     pub two_sided: bool,
     /// 1 / the shape's area, worked out once (pbrt-v3 keeps `area` too);
-    /// private, so that only [`DiffuseAreaLight::new`] makes a light and it
-    /// always matches `shape`.
+    /// private, like `shape`, so that only [`DiffuseAreaLight::new`] makes
+    /// a light and it always matches `shape`.
     inv_area: f32,
     /// [`Shape::light_normal`], worked out once in the same way.
     geometric_normal: Vec3,

@@ -90,8 +90,9 @@ pub fn sobol_sample(mut a: i64, dim: usize) -> f32 {
     if (a as u64) < 1 << SOBOL_MATRIX_SIZE {
         v ^= xor_columns(&SOBOL_MATRICES_32[i..i + SOBOL_MATRIX_SIZE], a as u64);
     } else {
-        // pbrt-v3's loop runs on into the next dimensions' columns for
-        // indices of 2^52 and up (and negative ones), to the table's end.
+        // Indices of 2^52 and up (and negative ones) run on into the next
+        // dimensions' columns, as in pbrt-v3's loop, and stop at the
+        // table's end, where pbrt-v3 would read past it.
         while a != 0 && i < SOBOL_MATRICES_32.len() {
             if a & 1 != 0 {
                 v ^= SOBOL_MATRICES_32[i];
@@ -129,7 +130,8 @@ impl Sobol {
         if m == 0 {
             return 0;
         }
-        // pbrt-v3's loops stop at the matrices' 52 columns.
+        // Bits from 52 up are dropped, as this function's bit loops did
+        // (pbrt-v3's read past the 52 columns).
         const COLUMNS: u64 = (1 << SOBOL_MATRIX_SIZE) - 1;
         let index = frame << (2 * m);
         let delta = xor_columns(&self.vdc.0, frame & COLUMNS);

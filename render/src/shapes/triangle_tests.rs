@@ -125,3 +125,44 @@ fn barycentric_hit_and_uv_defaults() {
     assert!(si.uv.x >= 0.0 && si.uv.x <= 1.0 && si.uv.y <= si.uv.x + 1e-6);
     assert!((tris[0].area() - 3f32.sqrt() / 2.0).abs() < 1e-5);
 }
+
+/// A sampled point's normal as pbrt-v3's `Triangle::Sample` orients it:
+/// without shading normals, as a ray's hit at that point reports it
+/// (flipped by reverse orientation XOR a handedness-swapping transform);
+/// with them, turned to their side, whatever the flags (where pbrt-v3's
+/// `Intersect` would flip it for reverse orientation: the two disagree
+/// there, and farm renders what pbrt-v3 does).
+#[test]
+fn sampled_normals_face_as_pbrt_v3_samples_them() {
+    let p = vec![Vec3::ZERO, Vec3::X, Vec3::Y];
+    let tilted = |z: f32| Some(vec![Vec3::new(0.3, 0.0, z), Vec3::new(0.0, 0.2, z), Vec3::Z * z]);
+    let mut flips = 0;
+    for (rev, swap) in [(false, false), (true, false), (false, true), (true, true)] {
+        for (n, side) in [(None, 0.0), (tilted(1.0), 1.0), (tilted(-1.0), -1.0)] {
+            let mesh = Arc::new(TriangleMesh {
+                p: p.clone(),
+                n,
+                reverse_orientation: rev,
+                transform_swaps_handedness: swap,
+                ..Default::default()
+            });
+            let shape = Shape::Triangle { mesh: mesh.clone(), v: [0, 1, 2] };
+            let tri = shape.triangle().expect("a triangle");
+            let u = Vec2::new(0.3, 0.6);
+            let it = tri.sample_point(u);
+            assert_eq!(it.n, tri.sample_point_facing(u, tri.geometric_normal()).n);
+            let case = format!("reverse {rev}, swaps {swap}, shading side {side}");
+            assert_eq!(it.n.z.abs(), 1.0, "{case}: the geometric normal, {}", it.n);
+            if side == 0.0 {
+                let ray = Ray::new(it.p + Vec3::Z, -Vec3::Z, 0.0);
+                let (_, si) = shape.intersect_no_alpha(&ray).expect("the ray hits the point");
+                assert_eq!(it.n.z, si.it.n.z, "{case}: sampled {} against hit {}", it.n, si.it.n);
+            } else {
+                assert_eq!(it.n.z, side, "{case}");
+            }
+            flips += usize::from(it.n.z < 0.0);
+        }
+    }
+    // Both sides occur: the rule is not a constant.
+    assert_eq!(flips, 6);
+}

@@ -127,8 +127,9 @@ fn smooth_step(min: f32, max: f32, value: f32) -> f32 {
 }
 
 /// How many octaves the footprint `dpdx`, `dpdy` can show, at most
-/// `max_octaves` (pbrt-v3's `Clamp(-1 - .5 Log2(len2), 0, maxOctaves)`,
-/// which gives `maxOctaves` where that is below 0).
+/// `max_octaves` (pbrt-v3's `Clamp(-1 - .5 Log2(len2), 0, maxOctaves)`;
+/// with `max_octaves` below 0 that is 0 for a count below 0 and
+/// `max_octaves` otherwise).
 #[inline]
 fn octaves(dpdx: Vec3, dpdy: Vec3, max_octaves: i32) -> f32 {
     let len2 = dpdx.length_squared().max(dpdy.length_squared());
@@ -224,8 +225,19 @@ mod tests {
     /// pbrt-v3's `FBm` and `Turbulence` as written: the logarithm always,
     /// every octave's noise, and its `Clamp`.
     fn pbrt_fbm_turbulence(p: Vec3, dx: Vec3, dy: Vec3, omega: f32, max: i32) -> (f32, f32) {
+        // pbrt-v3's `Clamp`, written out again so that the test does not
+        // lean on `math::clamp`.
+        let clamp = |v: f32, lo: f32, hi: f32| {
+            if v < lo {
+                lo
+            } else if v > hi {
+                hi
+            } else {
+                v
+            }
+        };
         let len2 = dx.length_squared().max(dy.length_squared());
-        let n = math::clamp(-1.0 - 0.5 * math::log2(len2), 0.0, max as f32);
+        let n = clamp(-1.0 - 0.5 * math::log2(len2), 0.0, max as f32);
         let n_int = math::floor(n) as i32;
         let (mut f, mut t, mut lambda, mut o) = (0.0, 0.0, 1.0, 1.0);
         for _ in 0..n_int {

@@ -8,8 +8,8 @@ use std::arch::x86_64::*;
 /// `mask ? a : b`, lane by lane.
 #[inline(always)]
 fn select(mask: __m128i, a: __m128, b: __m128) -> __m128 {
-    // SAFETY (here and below): SSE and SSE2 are part of every x86-64
-    // target; these intrinsics only compute on registers.
+    // SAFETY: SSE and SSE2 are part of every x86-64 target, and these
+    // intrinsics only compute on registers (no memory is read or written).
     unsafe {
         let m = _mm_castsi128_ps(mask);
         _mm_or_ps(_mm_and_ps(m, a), _mm_andnot_ps(m, b))
@@ -20,6 +20,7 @@ fn select(mask: __m128i, a: __m128, b: __m128) -> __m128 {
 /// for all four), `dy` and `dz` (one a corner).
 #[inline(always)]
 fn grads(h: [i32; 4], dx: f32, dy: __m128, dz: __m128) -> __m128 {
+    // SAFETY: as in `select`: SSE2 register arithmetic only.
     unsafe {
         let h = _mm_setr_epi32(h[0], h[1], h[2], h[3]);
         // h == 12 || h == 13
@@ -41,6 +42,7 @@ fn grads(h: [i32; 4], dx: f32, dy: __m128, dz: __m128) -> __m128 {
 #[inline(always)]
 pub(super) fn blend(d: [f32; 3], h: [[i32; 4]; 2]) -> f32 {
     let [dx, dy, dz] = d;
+    // SAFETY: as in `select`: SSE2 register arithmetic only.
     unsafe {
         let dy4 = _mm_setr_ps(dy, dy - 1.0, dy, dy - 1.0);
         let dz4 = _mm_setr_ps(dz, dz, dz - 1.0, dz - 1.0);
