@@ -16,7 +16,7 @@ use farm_common::geometry::{
 };
 use farm_common::ids::TileId;
 use farm_common::math;
-use farm_common::scene::{Entity, Params, SceneDescription, Warning};
+use farm_common::scene::{Entity, FileLoc, Params, SceneDescription, Warning};
 use farm_common::Spectrum;
 
 mod parallel;
@@ -158,9 +158,15 @@ impl Renderer {
 
         // The integrator: Whitted whatever the file asks for.
         let ip = Params::new(&desc.integrator.params);
-        let iname =
-            if desc.integrator.name.is_empty() { "path" } else { desc.integrator.name.as_str() };
-        if iname != "whitted" {
+        let iname = desc.integrator.name.as_str();
+        // The parser's default: pbrt-v3's "path", at no place in the file.
+        let no_directive = iname.is_empty() || desc.integrator.loc == FileLoc::default();
+        if no_directive && iname != "whitted" {
+            warnings.push(Warning {
+                loc: None,
+                message: "no Integrator directive, and pbrt-v3's default \"path\" is not supported; rendering with \"whitted\"".into(),
+            });
+        } else if iname != "whitted" {
             warnings.push(Warning::at(
                 &desc.integrator.loc,
                 format!("Integrator \"{iname}\" is not supported; rendering with \"whitted\""),

@@ -138,3 +138,30 @@ fn moving_shapes_and_cameras_are_found() {
         "{lines}"
     );
 }
+
+/// A scene without an Integrator directive is warned about without a
+/// place in the file (there is none to name), one with an unsupported
+/// integrator at its directive.
+#[test]
+fn the_integrator_warning_names_the_directive_only_where_there_is_one() {
+    let tmp = tempfile::Builder::new().prefix("farm-features-").tempdir().expect("temp dir");
+    let head = "Camera \"perspective\"\nFilm \"image\" \"integer xresolution\" 8 \"integer yresolution\" 8\n";
+    for (integrator, loc) in
+        [("", None), ("Integrator \"path\"\n", Some(3)), ("Integrator \"whitted\"\n", None)]
+    {
+        let path = tmp.path().join("integrator.pbrt");
+        std::fs::write(&path, format!("{head}{integrator}WorldBegin\n{GLASS_AND_PLANE}"))
+            .expect("write");
+        let (desc, _) = farm_scene::parse_file(&path).expect("parses");
+        let (_, warnings) = Renderer::new(desc, &RenderOptions::default()).expect("builds");
+        let w: Vec<_> = warnings.iter().filter(|w| w.message.contains("rendering with")).collect();
+        match loc {
+            None if integrator.is_empty() => {
+                assert!(w.len() == 1 && w[0].loc.is_none(), "{w:?}");
+                assert!(w[0].to_string().starts_with("warning: no Integrator directive"), "{w:?}");
+            }
+            None => assert!(w.is_empty(), "{w:?}"),
+            Some(line) => assert_eq!(w[0].loc.as_ref().map(|l| l.line), Some(line), "{w:?}"),
+        }
+    }
+}
