@@ -160,7 +160,8 @@ impl Renderer {
         let ip = Params::new(&desc.integrator.params);
         let iname = desc.integrator.name.as_str();
         // The parser's default: pbrt-v3's "path", at no place in the file.
-        let no_directive = iname.is_empty() || desc.integrator.loc == FileLoc::default();
+        let no_directive =
+            iname.is_empty() || iname == "path" && desc.integrator.loc == FileLoc::default();
         if no_directive && iname != "whitted" {
             warnings.push(Warning {
                 loc: None,
