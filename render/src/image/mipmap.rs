@@ -254,7 +254,8 @@ impl<T: Texel> MipMap<T> {
         let (mut dst0, mut dst1) = (dst0, dst1);
         if self.trilinear {
             let width = dst0.x.abs().max(dst0.y.abs()).max(dst1.x.abs().max(dst1.y.abs()));
-            return self.lookup(st, 2.0 * width);
+            // pbrt-v3's code passes the width itself (the book prints 2 × it).
+            return self.lookup(st, width);
         }
         if dst0.length_squared() < dst1.length_squared() {
             std::mem::swap(&mut dst0, &mut dst1);

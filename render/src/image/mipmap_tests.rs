@@ -125,6 +125,29 @@ fn pyramid_averages_and_wraps() {
     assert_eq!(r.texel(0, 2, 5), 1.0);
 }
 
+/// A trilinear map filters over the largest differential component
+/// itself, as pbrt-v3's `MIPMap::Lookup(st, dst0, dst1)` passes it (its
+/// book prints twice it), whichever component is largest and whatever
+/// its sign.
+#[test]
+fn trilinear_filters_over_the_largest_differential_itself() {
+    let mut rng = Rng::new(7);
+    let texels: Vec<f32> = (0..64).map(|_| rng.uniform_f32()).collect();
+    let m = MipMap::new(8, 8, texels, true, 8.0, WrapMode::Clamp);
+    for _ in 0..500 {
+        let st = Vec2::new(rng.uniform_f32(), rng.uniform_f32());
+        let c: [f32; 4] = std::array::from_fn(|_| (rng.uniform_f32() - 0.5) * 0.6);
+        let width = c.iter().fold(0.0f32, |w, x| w.max(x.abs()));
+        let got = m.lookup_ewa(st, Vec2::new(c[0], c[1]), Vec2::new(c[2], c[3]));
+        assert_eq!(got.to_bits(), m.lookup(st, width).to_bits(), "{st:?} {c:?}");
+    }
+    // A width of 1/8 on 8 texels is level 3 − 3 = 0: level 0's bilinear
+    // value (twice it would be level 1's).
+    let st = Vec2::new(0.3, 0.6);
+    assert_eq!(m.lookup_ewa(st, Vec2::new(0.0, -1.0 / 8.0), Vec2::ZERO), m.lookup(st, 0.0));
+    assert_ne!(m.lookup(st, 0.0), m.lookup(st, 0.25));
+}
+
 /// Taking one level where the next one's weight is 0 gives the bits both
 /// levels give: on maps of random texels, of texels with a −0 channel, and
 /// of texels past 10²⁸ or infinite (where it must not: an infinite texel
