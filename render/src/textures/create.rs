@@ -84,8 +84,9 @@ fn make<T: Cached>(
         },
         "dots" => Texture::Dots(Dots {
             mapping: Mapping2D::create(p, sp, loc, w),
-            inside: r.input(p, "inside", one, w),
-            outside: r.input(p, "outside", zero, w),
+            // pbrt-v3 hands "inside" to the constructor's outsideDot.
+            background: r.input(p, "inside", one, w),
+            dot: r.input(p, "outside", zero, w),
         }),
         "imagemap" => Texture::ImageMap(ImageMap::create(p, sp, e, assets, caches, w)),
         "uv" if is_spectrum => Texture::Uv(UvTexture { mapping: Mapping2D::create(p, sp, loc, w) }),
