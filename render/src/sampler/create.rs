@@ -29,7 +29,12 @@ pub fn create(
         SamplerKind::ZeroTwoSequence => {
             Sampler::ZeroTwoSequence(ZeroTwoSequenceSampler::new(n, dimensions()))
         }
-        SamplerKind::MaxMinDist => Sampler::MaxMinDist(MaxMinDistSampler::new(n, dimensions())),
+        SamplerKind::MaxMinDist => {
+            // The count asked for, before rounding, picks pbrt-v3's matrix.
+            let asked =
+                spp_override.map_or_else(|| params.int("pixelsamples", 16).into(), i64::from);
+            Sampler::MaxMinDist(MaxMinDistSampler::asked(n, asked, dimensions()))
+        }
         SamplerKind::Sobol => Sampler::Sobol(SobolSampler::new(n, Sobol::new(sample_bounds))),
         SamplerKind::Random => {
             // pbrt-v3 takes the clock for a negative seed; we stay deterministic.

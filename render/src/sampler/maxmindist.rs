@@ -90,7 +90,17 @@ impl MaxMinDistSampler {
     /// A sampler taking `spp` samples (a power of two up to 2^16) with
     /// `n_dims` precomputed 1D and 2D dimensions.
     pub fn new(spp: i64, n_dims: usize) -> Self {
-        let index = (spp.max(1) as u64).ilog2() as usize;
+        Self::asked(spp, spp, n_dims)
+    }
+
+    /// A sampler taking `spp` samples where the scene asked for `asked`
+    /// (before pbrt-v3's rounding up to a power of two). pbrt-v3's
+    /// constructor picks the film's generator matrix by the count it was
+    /// given, not the rounded one (its `Log2Int(samplesPerPixel)` names
+    /// the argument), so 6 samples take 8 points of the matrix made for 4.
+    /// farm does the same, so such a scene renders pbrt-v3's image.
+    pub fn asked(spp: i64, asked: i64, n_dims: usize) -> Self {
+        let index = (asked.max(1) as u64).ilog2() as usize;
         MaxMinDistSampler {
             px: PixelSampler::new(spp, n_dims),
             c_pixel: &C_MAX_MIN_DIST[index.min(C_MAX_MIN_DIST.len() - 1)],
@@ -130,6 +140,34 @@ impl MaxMinDistSampler {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Six samples asked for render eight, from the matrix for four: the
+    /// film samples' second coordinates are the four-point matrix's values
+    /// at indices 0..8, and differ from the eight-point matrix's.
+    #[test]
+    fn a_count_rounded_up_keeps_the_matrix_of_the_count_asked() {
+        let y_values = |s: &mut MaxMinDistSampler| {
+            s.start_pixel(Point2i::new(3, 5));
+            let mut ys: Vec<u32> = (0..8)
+                .map(|i| {
+                    s.px.set_sample_number(i);
+                    s.px.get_2d().y.to_bits()
+                })
+                .collect();
+            ys.sort_unstable();
+            ys
+        };
+        let want: Vec<u32> = {
+            let mut v: Vec<u32> = (0..8)
+                .map(|i| sample_generator_matrix(&C_MAX_MIN_DIST[2], i, 0).to_bits())
+                .collect();
+            v.sort_unstable();
+            v
+        };
+        assert_eq!(y_values(&mut MaxMinDistSampler::asked(8, 6, 2)), want);
+        assert_ne!(y_values(&mut MaxMinDistSampler::new(8, 2)), want);
+        assert_eq!(y_values(&mut MaxMinDistSampler::asked(8, 5, 2)), want);
+    }
 
     #[test]
     fn film_samples_are_stratified_in_both_axes() {
