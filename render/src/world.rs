@@ -6,7 +6,7 @@
 use crate::accel::Bvh;
 use crate::error::BuildError;
 use crate::interaction::SurfaceInteraction;
-use crate::lights::{self, DiffuseAreaLight, Light};
+use crate::lights::{self, DiffuseAreaLight, Glow, Light};
 use crate::materials::{self, Material};
 use crate::primitive::{Aggregate, Instance, MaybeIndex, Placement, Primitive};
 use crate::shapes::{self, Shape};
@@ -27,6 +27,10 @@ pub struct World {
     instance_bvh: Bvh,
     /// All lights, area lights included.
     pub lights: Vec<Light>,
+    /// Area lights inside object instances: they emit where seen but light
+    /// nothing (pbrt-v3's behaviour). A primitive's `area_light` with
+    /// [`GLOW`] set indexes these, any other the lights.
+    pub glows: Vec<Glow>,
     /// Materials, indexed by `Primitive::material`.
     pub materials: Vec<Material>,
     /// Textures the materials refer to.
@@ -80,10 +84,10 @@ impl World {
         for s in shapes {
             if s.world_from_object.is_static() {
                 let xf = Transform::from_dmat4(render_from_world * s.world_from_object.start);
-                add_shape(s, &xf, &mut cx, Some(&mut lights), &mut prims, warnings);
+                add_shape(s, &xf, &mut cx, Emitters::Lights(&mut lights), &mut prims, warnings);
             } else {
                 let mut local = Vec::new();
-                add_shape(&s, &Transform::default(), &mut cx, None, &mut local, warnings);
+                add_shape(&s, &Transform::default(), &mut cx, Emitters::None, &mut local, warnings);
                 if s.area_light.is_some() {
                     warnings.push(Warning::at(
                         &s.entity.loc,
@@ -101,6 +105,7 @@ impl World {
 
         // Object instances share one aggregate per object.
         let mut objects: HashMap<u32, Arc<Aggregate>> = HashMap::new();
+        let mut glows = Vec::new();
         for inst in &desc.instances {
             let Some(obj) = desc.objects.get(inst.object as usize) else {
                 warnings.push(Warning::at(&inst.loc, "ObjectInstance refers to an unknown object"));
@@ -118,7 +123,11 @@ impl World {
                             ));
                         }
                         let xf = Transform::from_dmat4(s.world_from_object.start);
-                        add_shape(s, &xf, &mut cx, None, &mut local, warnings);
+                        let glows = match s.world_from_object.is_static() {
+                            true => Emitters::Glows(&mut glows),
+                            false => Emitters::None,
+                        };
+                        add_shape(s, &xf, &mut cx, glows, &mut local, warnings);
                     }
                     Arc::new(Aggregate::new(local, max_prims))
                 })
@@ -147,6 +156,7 @@ impl World {
             instances,
             instance_bvh,
             lights,
+            glows,
             materials,
             textures,
             bounds,
@@ -178,6 +188,19 @@ impl World {
         best
     }
 
+    /// Radiance the area light `id` of a primitive (its `area_light`) sends
+    /// from a point with geometric normal `n` in direction `w`.
+    #[inline]
+    pub fn emitted(&self, id: u32, n: Vec3, w: Vec3) -> Spectrum {
+        if id & GLOW != 0 {
+            self.glows.get((id & !GLOW) as usize).map_or(Spectrum::ZERO, |g| g.l(n, w))
+        } else if let Some(Light::Area(area)) = self.lights.get(id as usize) {
+            area.l(n, w)
+        } else {
+            Spectrum::ZERO
+        }
+    }
+
     /// Whether anything blocks `ray` before its `t_max`.
     #[inline(always)]
     pub fn intersect_p(&self, ray: &Ray) -> bool {
@@ -196,8 +219,20 @@ fn placement(x: &AnimatedXform, render_from_world: DMat4) -> Placement {
     Placement::Animated(AnimatedTransform::new(start, x.start_time, end, x.end_time))
 }
 
-/// Creates the shapes of one entity as primitives; with `lights`, shapes under
-/// an `AreaLightSource` each get a diffuse area light, as in pbrt-v3.
+/// The bit of a primitive's `area_light` that says it indexes
+/// [`World::glows`], not the lights.
+pub const GLOW: u32 = 1 << 31;
+
+/// Where the area light of a shape under an `AreaLightSource` goes.
+enum Emitters<'a> {
+    /// A diffuse area light for each of its shapes, as in pbrt-v3.
+    Lights(&'a mut Vec<Light>),
+    /// A glow for the entity's shapes (inside an object instance).
+    Glows(&'a mut Vec<Glow>),
+    /// Nowhere: a moving shape, whose area light pbrt-v3 ignores.
+    None,
+}
+
 /// What shapes are built with: the textures their alpha masks read, and
 /// the materials, to which a shape that sets material parameters adds its
 /// own.
@@ -255,7 +290,7 @@ fn add_shape(
     s: impl std::borrow::Borrow<ShapeEntity>,
     render_from_object: &Transform,
     cx: &mut ShapeCx,
-    lights: Option<&mut Vec<Light>>,
+    emitters: Emitters,
     prims: &mut Vec<Primitive>,
     warnings: &mut Vec<Warning>,
 ) {
@@ -279,8 +314,9 @@ fn add_shape(
         }
     }
     warnings.extend(params.unused_warnings());
-    let area = match (&s.area_light, lights) {
-        (Some(al), Some(lights)) => {
+    let area = match (&s.area_light, emitters) {
+        (_, Emitters::None) | (None, _) => None,
+        (Some(al), emitters) => {
             if al.name != "diffuse" && al.name != "area" {
                 warnings.push(Warning::at(
                     &al.loc,
@@ -294,22 +330,30 @@ fn add_shape(
                 p.touch("samples");
                 p.touch("nsamples");
                 warnings.extend(p.unused_warnings());
-                Some((l_emit, two_sided, lights))
+                Some((l_emit, two_sided, emitters))
             }
         }
-        _ => None,
     };
     drop(params);
     drop(entity);
     match area {
-        Some((l_emit, two_sided, lights)) => {
+        Some((l_emit, two_sided, Emitters::Glows(glows))) => {
+            let id = glows.len() as u32 | GLOW;
+            glows.push(Glow { l_emit, two_sided });
+            prims.extend(shapes.into_iter().map(|shape| Primitive {
+                shape,
+                material,
+                area_light: Some(id).into(),
+            }));
+        }
+        Some((l_emit, two_sided, Emitters::Lights(lights))) => {
             for shape in shapes {
                 let id = lights.len() as u32;
                 lights.push(Light::Area(DiffuseAreaLight::new(l_emit, shape.clone(), two_sided)));
                 prims.push(Primitive { shape, material, area_light: Some(id).into() });
             }
         }
-        None => prims.extend(shapes.into_iter().map(|shape| Primitive {
+        _ => prims.extend(shapes.into_iter().map(|shape| Primitive {
             shape,
             material,
             area_light: MaybeIndex::NONE,

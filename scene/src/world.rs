@@ -230,8 +230,9 @@ impl Builder {
             area_light = None;
         }
         if area_light.is_some() && self.current_object.is_some() {
+            // pbrt-v3 warns and keeps the light on the instance's shapes:
+            // they emit where seen but light nothing (the renderer's glows).
             self.warn(&entity.loc, "Area lights not supported with object instancing");
-            area_light = None;
         }
         let material = self.material_for_shape();
         let media = MediumInterface {

@@ -71,9 +71,7 @@ impl Whitted {
         // Emitted light if the hit is on an area light.
         let mut l = Spectrum::ZERO;
         if let Some(id) = prim.area_light.get() {
-            if let Some(crate::lights::Light::Area(area)) = scene.lights.get(id as usize) {
-                l += area.l(si.n(), wo);
-            }
+            l += scene.emitted(id, si.n(), wo);
         }
 
         // One sample of each light, with a shadow ray.

@@ -32,14 +32,11 @@ impl DiffuseAreaLight {
         DiffuseAreaLight { l_emit, shape, two_sided, inv_area, geometric_normal }
     }
 
-    /// Radiance leaving point `it` of the shape in direction `w`.
+    /// Radiance leaving a point of the shape whose geometric normal is `n`,
+    /// in direction `w`.
     #[inline]
     pub fn l(&self, n: Vec3, w: Vec3) -> Spectrum {
-        if self.two_sided || n.dot(w) > 0.0 {
-            self.l_emit
-        } else {
-            Spectrum::ZERO
-        }
+        emitted(self.l_emit, self.two_sided, n, w)
     }
 
     /// Samples a point on the shape as seen from `r`.
@@ -53,5 +50,37 @@ impl DiffuseAreaLight {
         }
         let wi = d.normalize();
         Some(LightSample { li: self.l(p_shape.n, -wi), wi, pdf, p_light: p_shape })
+    }
+}
+
+/// A surface that emits where it is seen but lights nothing: an area
+/// light on a shape inside an object instance. pbrt-v3 warns ("Area
+/// lights not supported with object instancing") but keeps the light on
+/// the instance's primitives, so camera and specular rays that hit them
+/// see `L`; only the scene's light list, which shadow rays sample, leaves
+/// it out.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Glow {
+    /// Emitted radiance (`L` × `scale`).
+    pub l_emit: Spectrum,
+    /// `twosided`: emit from the back too.
+    pub two_sided: bool,
+}
+
+impl Glow {
+    /// Radiance leaving a point with geometric normal `n` in direction `w`.
+    #[inline]
+    pub fn l(&self, n: Vec3, w: Vec3) -> Spectrum {
+        emitted(self.l_emit, self.two_sided, n, w)
+    }
+}
+
+/// pbrt-v3 `DiffuseAreaLight::L`: `l_emit` on the front side, or on both.
+#[inline]
+fn emitted(l_emit: Spectrum, two_sided: bool, n: Vec3, w: Vec3) -> Spectrum {
+    if two_sided || n.dot(w) > 0.0 {
+        l_emit
+    } else {
+        Spectrum::ZERO
     }
 }

@@ -11,7 +11,7 @@ mod projection;
 mod spot;
 
 pub use create::create;
-pub use diffuse::DiffuseAreaLight;
+pub use diffuse::{DiffuseAreaLight, Glow};
 pub use distant::DistantLight;
 pub use goniometric::GoniometricLight;
 pub use infinite::InfiniteLight;
