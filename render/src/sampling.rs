@@ -184,10 +184,14 @@ impl Distribution2D {
         (Vec2::new(d0, d1), pdf0 * pdf1)
     }
 
+    /// Cells across (u) and down (v).
+    pub fn size(&self) -> (usize, usize) {
+        (self.conditional[0].count(), self.marginal.count())
+    }
+
     /// Density at `p`.
     pub fn pdf(&self, p: Vec2) -> f32 {
-        let nu = self.conditional[0].count();
-        let nv = self.marginal.count();
+        let (nu, nv) = self.size();
         let iu = ((p.x * nu as f32) as usize).min(nu - 1);
         let iv = ((p.y * nv as f32) as usize).min(nv - 1);
         self.conditional[iv].func[iu] / self.marginal.func_int

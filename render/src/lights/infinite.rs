@@ -38,8 +38,11 @@ impl InfiniteLight {
         texels: Vec<Spectrum>,
     ) -> Self {
         let lmap = MipMap::new(width, height, texels, false, 8.0, WrapMode::Repeat);
-        // Sample the map at twice its resolution, weighted by sin θ.
-        let (w, h) = (2 * width, 2 * height);
+        // Sample the map at twice its resolution, weighted by sin θ: the
+        // MIP map's, a power of two each way, as pbrt-v3 takes
+        // `Lmap->Width()`, not the image file's.
+        let (map_w, map_h) = lmap.level_size(0);
+        let (w, h) = (2 * map_w, 2 * map_h);
         let filter_width = 0.5 / (w.min(h) as f32);
         let mut img = vec![0.0f32; w * h];
         for v in 0..h {
@@ -179,5 +182,17 @@ mod tests {
             let ray = Ray::new(Vec3::ZERO, a.wi, 0.0);
             assert!(close(fast.le(&ray)[0], general.le(&ray)[0]));
         }
+    }
+
+    /// The importance distribution covers twice the MIP map's resolution,
+    /// which is the image's rounded up to powers of two (pbrt-v3 builds it
+    /// from `Lmap->Width()` and `Height()`): 128 × 64 cells for a 48 × 20
+    /// image, not 96 × 40.
+    #[test]
+    fn the_distribution_covers_twice_the_map_not_the_image() {
+        let texels = (0..48 * 20).map(|i| Spectrum::splat(1.0 + (i % 7) as f32)).collect();
+        let l = InfiniteLight::new(Transform::default(), 48, 20, texels);
+        assert_eq!(l.lmap.level_size(0), (64, 32));
+        assert_eq!(l.distribution.size(), (128, 64));
     }
 }
