@@ -309,7 +309,8 @@ impl Curve {
             return false;
         }
         let w = (-Vec2::new(cp[0].x, cp[0].y)).dot(seg_dir) / denom;
-        let u = lerp(w, u0, u1).clamp(u0, u1);
+        // pbrt-v3 `Clamp`, which never panics (`f32::clamp` would on u0 > u1).
+        let u = math::clamp(lerp(w, u0, u1), u0, u1);
         let mut hit_width = self.width_at(u);
         let c = &*self.common;
         let mut n_hit = Vec3::ZERO;
