@@ -177,8 +177,12 @@ impl PixelSampler {
             self.current_2d += 1;
             v
         } else {
-            let x = self.rng.uniform_f32();
-            Vec2::new(x, self.rng.uniform_f32())
+            // pbrt-v3 returns `Point2f(rng.UniformFloat(), rng.UniformFloat())`,
+            // whose arguments C++ may evaluate in either order. g++, which
+            // builds pbrt-v3 here (../shared/reference/BUILD-PBRT-V3.md),
+            // evaluates them right to left: y is drawn first.
+            let y = self.rng.uniform_f32();
+            Vec2::new(self.rng.uniform_f32(), y)
         }
     }
 }
@@ -303,5 +307,26 @@ impl<S: GlobalSequence> GlobalSampler<S> {
         }
         self.dimension += n;
         self.dimension - n
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Past its precomputed dimensions, a 2D value is the next two random
+    /// numbers with y drawn first (g++'s order for pbrt-v3's
+    /// `Point2f(rng.UniformFloat(), rng.UniformFloat())`); a 1D value is
+    /// the next one.
+    #[test]
+    fn past_the_precomputed_dimensions_y_is_drawn_first() {
+        let mut s = PixelSampler::new(4, 1);
+        s.rng.set_sequence(17);
+        let mut rng = s.rng.clone();
+        s.start_pixel(Point2i::new(2, 3));
+        let _ = (s.get_1d(), s.get_2d());
+        let (a, b, c) = (rng.uniform_f32(), rng.uniform_f32(), rng.uniform_f32());
+        assert_eq!(s.get_2d(), Vec2::new(b, a));
+        assert_eq!(s.get_1d(), c);
     }
 }
