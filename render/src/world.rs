@@ -12,7 +12,9 @@ use crate::primitive::{Aggregate, Instance, MaybeIndex, Placement, Primitive};
 use crate::shapes::{self, Shape};
 use crate::textures::{self, TextureSet};
 use farm_common::geometry::{AnimatedTransform, Bounds3f, DMat4, Ray, Transform, Vec3};
-use farm_common::scene::{AnimatedXform, Params, SceneDescription, ShapeEntity, Warning};
+use farm_common::scene::{
+    AnimatedXform, LightEntity, Params, SceneDescription, ShapeEntity, Warning,
+};
 use farm_common::Spectrum;
 use std::collections::HashMap;
 use std::sync::Arc;
@@ -57,19 +59,12 @@ impl World {
         let files = materials::MaterialFiles::new(&desc.assets);
         let materials = materials::build(&desc.materials, &textures, &files, warnings);
         let mut cx = ShapeCx { desc, textures: &textures, files: &files, materials };
+        // pbrt-v3 lists lights in the order of their directives: a
+        // `LightSource` after the area lights of the shapes before it. The
+        // integrator draws each light's sample in that order, so farm keeps
+        // it to take pbrt-v3's samples.
         let mut lights = Vec::new();
-        for l in &desc.lights {
-            if !l.world_from_light.is_static() {
-                warnings.push(Warning::at(
-                    &l.entity.loc,
-                    "animated light transforms are not supported; using the start transform",
-                ));
-            }
-            let xf = Transform::from_dmat4(render_from_world * l.world_from_light.start);
-            if let Some(light) = lights::create(&l.entity, &xf, &desc.assets, warnings) {
-                lights.push(light);
-            }
-        }
+        let mut light_sources = desc.lights.iter().peekable();
         if !desc.media.is_empty() {
             warnings.push(Warning {
                 loc: Some(desc.media[0].entity.loc.clone()),
@@ -81,7 +76,10 @@ impl World {
         // BVH; moving ones become single-use instances.
         let mut prims = Vec::new();
         let mut instances = Vec::new();
-        for s in shapes {
+        for (i, s) in shapes.into_iter().enumerate() {
+            while let Some(l) = light_sources.next_if(|l| l.shapes_before as usize <= i) {
+                add_light(l, render_from_world, desc, &mut lights, warnings);
+            }
             if s.world_from_object.is_static() {
                 let xf = Transform::from_dmat4(render_from_world * s.world_from_object.start);
                 add_shape(s, &xf, &mut cx, Emitters::Lights(&mut lights), &mut prims, warnings);
@@ -101,6 +99,10 @@ impl World {
                     });
                 }
             }
+        }
+
+        for l in light_sources {
+            add_light(l, render_from_world, desc, &mut lights, warnings);
         }
 
         // Object instances share one aggregate per object.
@@ -207,6 +209,26 @@ impl World {
         self.aggregate.intersect_p(ray)
             || (!self.instances.is_empty()
                 && self.instance_bvh.intersect_any(ray, |i, r| self.instances[i].intersect_p(r)))
+    }
+}
+
+/// Makes the light of a `LightSource` directive.
+fn add_light(
+    l: &LightEntity,
+    render_from_world: DMat4,
+    desc: &SceneDescription,
+    lights: &mut Vec<Light>,
+    warnings: &mut Vec<Warning>,
+) {
+    if !l.world_from_light.is_static() {
+        warnings.push(Warning::at(
+            &l.entity.loc,
+            "animated light transforms are not supported; using the start transform",
+        ));
+    }
+    let xf = Transform::from_dmat4(render_from_world * l.world_from_light.start);
+    if let Some(light) = lights::create(&l.entity, &xf, &desc.assets, warnings) {
+        lights.push(light);
     }
 }
 

@@ -235,3 +235,19 @@ fn parameter_values_match_declared_types() {
     assert!(err("WorldBegin Shape \"x\" \"texture t\" [\"a\" \"b\"]")
         .contains("exactly one texture name"));
 }
+
+/// Each light knows how many top-level shapes came before it (pbrt-v3
+/// lists lights in directive order, area lights among them), shapes in
+/// object definitions not counted; `--cat` writes it back in place.
+#[test]
+fn lights_know_the_shapes_before_them() {
+    let src = "WorldBegin\nLightSource \"point\"\nAreaLightSource \"diffuse\"\nShape \"disk\"\n\
+ObjectBegin \"o\" Shape \"sphere\" ObjectEnd\nLightSource \"spot\"\nShape \"sphere\"\nShape \"sphere\"\nLightSource \"distant\"\n";
+    let (s, _) = parse(src);
+    let before: Vec<u32> = s.lights.iter().map(|l| l.shapes_before).collect();
+    assert_eq!(before, [0, 1, 3]);
+    let text = crate::write_scene(&s, crate::Meshes::Inline).unwrap();
+    let (again, _) = parse(&text);
+    let after: Vec<u32> = again.lights.iter().map(|l| l.shapes_before).collect();
+    assert_eq!(after, before, "{text}");
+}

@@ -201,7 +201,8 @@ impl Builder {
         }
         let medium = self.medium_name(&self.gs.outside_medium.clone(), &entity.loc);
         let world_from_light = self.start_only();
-        self.scene.lights.push(LightEntity { entity, world_from_light, medium });
+        let shapes_before = self.scene.shapes.len() as u32;
+        self.scene.lights.push(LightEntity { entity, world_from_light, medium, shapes_before });
         Ok(())
     }
 

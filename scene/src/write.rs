@@ -75,11 +75,17 @@ pub fn write_scene(s: &SceneDescription, meshes: Meshes) -> std::io::Result<Stri
         let head = format!("MakeNamedMaterial {}", quote(m.name.as_deref().unwrap_or("")));
         w.params(&head, &with_type(&m.entity));
     }
-    for l in &s.lights {
-        w.light(l);
-    }
-    for shape in &s.shapes {
+    // Each light where its directive was among the shapes: pbrt-v3 numbers
+    // the lights in that order.
+    let mut lights = s.lights.iter().peekable();
+    for (i, shape) in s.shapes.iter().enumerate() {
+        while let Some(l) = lights.next_if(|l| l.shapes_before as usize <= i) {
+            w.light(l);
+        }
         w.shape(shape)?;
+    }
+    for l in lights {
+        w.light(l);
     }
     for o in &s.objects {
         w.line(&format!("ObjectBegin {}", quote(&o.name)));

@@ -50,6 +50,7 @@ pub fn tiny_scene(size: i32) -> SceneDescription {
         entity: Entity::named("point"),
         world_from_light: eye,
         medium: None,
+        shapes_before: 1,
     });
     desc.assets.insert("note.txt".into(), b"an asset".to_vec());
     desc

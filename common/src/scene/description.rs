@@ -139,6 +139,11 @@ pub struct LightEntity {
     pub world_from_light: AnimatedXform,
     /// The outside medium in effect.
     pub medium: Option<String>,
+    /// How many top-level shapes came before the directive: pbrt-v3 lists
+    /// the scene's lights in the order of their directives, this light
+    /// after the area lights of those shapes.
+    #[serde(default)]
+    pub shapes_before: u32,
 }
 
 /// An `ObjectBegin`/`ObjectEnd` block.
