@@ -84,7 +84,13 @@ fn share_of_pixels_off(
         .pixels
         .iter()
         .zip(&reference.pixels)
-        .filter(|(a, r)| (0..3).any(|c| !((a[c] - r[c]).abs() <= 0.01 * (r[c].abs() + 0.01))))
+        .filter(|(a, r)| {
+            // A NaN on either side counts as off.
+            (0..3).any(|c| {
+                let d = (a[c] - r[c]).abs();
+                d.is_nan() || d > 0.01 * (r[c].abs() + 0.01)
+            })
+        })
         .count();
     off as f64 / reference.pixels.len().max(1) as f64
 }

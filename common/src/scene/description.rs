@@ -141,8 +141,10 @@ pub struct LightEntity {
     pub medium: Option<String>,
     /// How many top-level shapes came before the directive: pbrt-v3 lists
     /// the scene's lights in the order of their directives, this light
-    /// after the area lights of those shapes.
-    #[serde(default)]
+    /// after the area lights of those shapes. Not in the serialized form,
+    /// so manifests written before it keep their layout: a manifest
+    /// carries these after the description (farm-proto `encode_scene`).
+    #[serde(skip)]
     pub shapes_before: u32,
 }
 

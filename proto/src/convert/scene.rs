@@ -62,7 +62,11 @@ pub fn encode_scene(desc: &mut SceneDescription) -> Result<(Blob, Vec<Blob>), Er
         moved.push((key, std::mem::take(&mut shape.entity.params)));
     }
     let refs: Vec<(&str, Hash)> = assets.iter().map(|(k, b)| (k.as_str(), b.hash)).collect();
-    let bytes = postcard::to_stdvec(&(&*desc, refs));
+    // Where each light's directive was among the shapes, after the
+    // description and its assets: a manifest from before it is the two
+    // alone, and a reader from before it ignores the rest.
+    let light_order: Vec<u32> = desc.lights.iter().map(|l| l.shapes_before).collect();
+    let bytes = postcard::to_stdvec(&(&*desc, refs, light_order));
     for (key, params) in moved {
         if let Some(shape) = shape_at(desc, &key) {
             shape.entity.params = params;
@@ -94,7 +98,25 @@ fn shape_at<'d>(desc: &'d mut SceneDescription, key: &str) -> Option<&'d mut Sha
 /// The description in a manifest (with no assets yet, and no parameters
 /// in the shapes sent apart) and the assets it needs, by key and hash.
 pub fn decode_manifest(bytes: &[u8]) -> Result<(SceneDescription, Vec<(String, Hash)>), Error> {
-    postcard::from_bytes(bytes).map_err(|e| Error::Malformed(e.to_string()))
+    let malformed = |e: postcard::Error| Error::Malformed(e.to_string());
+    let ((mut desc, refs), rest): ((SceneDescription, Vec<(String, Hash)>), _) =
+        postcard::take_from_bytes(bytes).map_err(malformed)?;
+    // A manifest from before the lights' order ends here: every light
+    // comes before the shapes, as farm then made them.
+    if !rest.is_empty() {
+        let order: Vec<u32> = postcard::from_bytes(rest).map_err(malformed)?;
+        if order.len() != desc.lights.len() {
+            return Err(Error::Malformed(format!(
+                "{} light positions for {} lights",
+                order.len(),
+                desc.lights.len()
+            )));
+        }
+        for (l, n) in desc.lights.iter_mut().zip(order) {
+            l.shapes_before = n;
+        }
+    }
+    Ok((desc, refs))
 }
 
 /// The full description: the manifest's, with each asset looked up by hash
@@ -210,5 +232,37 @@ mod tests {
         let bad = postcard::to_stdvec(&(&desc, &refs)).unwrap();
         let e = decode_scene(&bad, find).unwrap_err().to_string();
         assert!(e.contains("no shape"), "{e}");
+    }
+
+    /// Each light's place among the shapes travels after the description;
+    /// a manifest without it (written before it) decodes with every light
+    /// first, and one whose count disagrees with the lights is refused.
+    #[test]
+    fn the_lights_place_among_the_shapes_travels() {
+        use farm_common::scene::{Entity, LightEntity};
+        let mut d = SceneDescription { name: "l".into(), ..Default::default() };
+        d.shapes.push(mesh(3));
+        d.shapes.push(mesh(4));
+        for n in [0, 2, 1] {
+            d.lights.push(LightEntity {
+                entity: Entity::named("point"),
+                world_from_light: Default::default(),
+                medium: None,
+                shapes_before: n,
+            });
+        }
+        let (m, blobs) = encode_scene(&mut d.clone()).unwrap();
+        assert!(blobs.is_empty());
+        let (back, _) = decode_manifest(&m.data).unwrap();
+        assert_eq!(back, d);
+        let before: Vec<u32> = back.lights.iter().map(|l| l.shapes_before).collect();
+        assert_eq!(before, [0, 2, 1]);
+        let refs: Vec<(String, Hash)> = Vec::new();
+        let old = postcard::to_stdvec(&(&d, &refs)).unwrap();
+        let (back, _) = decode_manifest(&old).unwrap();
+        assert!(back.lights.iter().all(|l| l.shapes_before == 0));
+        let bad = postcard::to_stdvec(&(&d, &refs, vec![1u32])).unwrap();
+        let e = decode_manifest(&bad).unwrap_err().to_string();
+        assert!(e.contains("light positions"), "{e}");
     }
 }
