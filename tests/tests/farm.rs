@@ -38,6 +38,29 @@ async fn one_two_and_four_workers_match_the_embedded_render_bit_for_bit() {
     }
 }
 
+/// A scene whose lights must keep their directive order (an area light
+/// before two `LightSource`s, another after) renders on a worker what it
+/// renders embedded: the order travels in the manifest.
+#[tokio::test(flavor = "multi_thread", worker_threads = 4)]
+async fn the_lights_order_travels_to_the_workers() {
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../scenes/parity/twins/light-order.pbrt");
+    let opts = SubmitOptions { threads: 2, ..Default::default() };
+    let local = submit::render(&path, &opts, |_| {}).expect("embedded render").image;
+    let cluster = TestCluster::start(1, Duration::from_millis(500)).await;
+    let remote = client::submit(
+        &farm_cli::client::Remote::insecure(&cluster.url),
+        &path,
+        &RemoteOptions::default(),
+        |_, _| {},
+    )
+    .await
+    .expect("farm render")
+    .image;
+    assert!(bits(&remote) == bits(&local), "the farm's image differs from the embedded render");
+    cluster.stop().await;
+}
+
 #[tokio::test(flavor = "multi_thread", worker_threads = 4)]
 async fn a_worker_killed_mid_job_changes_no_bit() {
     let reference = bits(&embedded());
