@@ -352,6 +352,20 @@ fn add_shape(
                 p.touch("samples");
                 p.touch("nsamples");
                 warnings.extend(p.unused_warnings());
+                let shape = s.entity.name.as_str();
+                if matches!(emitters, Emitters::Lights(_))
+                    && matches!(shape, "cone" | "paraboloid" | "hyperboloid" | "curve")
+                {
+                    // pbrt-v3 aborts ("Cone::Sample not implemented") at the
+                    // first point it lights.
+                    warnings.push(Warning::at(
+                        &al.loc,
+                        format!(
+                            "an area light on a \"{shape}\" cannot be sampled (pbrt-v3 stops \
+                             there); it is seen but lights nothing"
+                        ),
+                    ));
+                }
                 Some((l_emit, two_sided, emitters))
             }
         }

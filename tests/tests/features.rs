@@ -165,3 +165,30 @@ fn the_integrator_warning_names_the_directive_only_where_there_is_one() {
         }
     }
 }
+
+/// An area light on a shape pbrt-v3 cannot sample (it aborts there) is
+/// a warning at its `AreaLightSource`; on a sphere it is none. Either
+/// way the render goes on.
+#[test]
+fn an_area_light_on_a_shape_that_cannot_be_sampled_warns() {
+    let tmp = tempfile::Builder::new().prefix("farm-features-").tempdir().expect("temp dir");
+    let head = "Camera \"perspective\"\nFilm \"image\" \"integer xresolution\" 8 \"integer yresolution\" 8\nIntegrator \"whitted\"\nWorldBegin\n";
+    for shape in ["cone", "paraboloid", "hyperboloid", "sphere"] {
+        let path = tmp.path().join("light.pbrt");
+        let scene = format!(
+            "{head}AttributeBegin\nTranslate 0 0 5\nAreaLightSource \"diffuse\"\nShape \"{shape}\"\nAttributeEnd\n"
+        );
+        std::fs::write(&path, scene).expect("write");
+        let (desc, _) = farm_scene::parse_file(&path).expect("parses");
+        let (_, warnings) = Renderer::new(desc, &RenderOptions::default()).expect("builds");
+        let w: Vec<_> =
+            warnings.iter().filter(|w| w.message.contains("cannot be sampled")).collect();
+        if shape == "sphere" {
+            assert!(w.is_empty(), "{w:?}");
+        } else {
+            assert_eq!(w.len(), 1, "{shape}: {warnings:?}");
+            assert_eq!(w[0].loc.as_ref().map(|l| l.line), Some(7), "{w:?}");
+            assert!(w[0].message.contains(shape), "{w:?}");
+        }
+    }
+}
