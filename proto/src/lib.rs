@@ -23,8 +23,11 @@ pub mod error;
 pub use error::{Error, Result};
 
 /// The protocol version workers and clients must speak. Bump it on any
-/// incompatible change to the .proto files.
-pub const PROTOCOL_VERSION: u32 = 3;
+/// incompatible change to the .proto files, or to what a worker renders
+/// from the same manifest: every worker of a job must give the same bits.
+/// 4: lights in directive order (a manifest's trailing list), and the
+/// pbrt-v3 behaviours that came with it (see `scenes/parity/twins/`).
+pub const PROTOCOL_VERSION: u32 = 4;
 
 /// Largest message the farm's services accept or send (images, tiles and
 /// blob chunks stay below it).

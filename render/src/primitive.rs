@@ -17,7 +17,10 @@ pub struct Primitive {
     /// Index into the scene's materials; none for `Material "none"`
     /// (surfaces that only bound media, skipped by the Whitted integrator).
     pub material: MaybeIndex,
-    /// Index into the scene's lights if the shape emits.
+    /// If the shape emits: an index into the scene's lights, or, with
+    /// [`crate::world::GLOW`] set, into [`crate::world::World::glows`]
+    /// (an area light inside an object instance). [`crate::world::World::emitted`]
+    /// reads either.
     pub area_light: MaybeIndex,
 }
 

@@ -27,7 +27,8 @@ pub struct World {
     /// Object instances and moving shapes.
     pub instances: Vec<Instance>,
     instance_bvh: Bvh,
-    /// All lights, area lights included.
+    /// All lights, area lights included, in pbrt-v3's order (that of
+    /// their directives), in which the integrator draws their samples.
     pub lights: Vec<Light>,
     /// Area lights inside object instances: they emit where seen but light
     /// nothing (pbrt-v3's behaviour). A primitive's `area_light` with
@@ -125,11 +126,12 @@ impl World {
                             ));
                         }
                         let xf = Transform::from_dmat4(s.world_from_object.start);
-                        let glows = match s.world_from_object.is_static() {
-                            true => Emitters::Glows(&mut glows),
-                            false => Emitters::None,
+                        let emitters = if s.world_from_object.is_static() {
+                            Emitters::Glows(&mut glows)
+                        } else {
+                            Emitters::None
                         };
-                        add_shape(s, &xf, &mut cx, glows, &mut local, warnings);
+                        add_shape(s, &xf, &mut cx, emitters, &mut local, warnings);
                     }
                     Arc::new(Aggregate::new(local, max_prims))
                 })

@@ -57,6 +57,11 @@ fn check(path: &Path, meshes: Meshes) -> Result<(), String> {
     let text = write_scene(&a, meshes).map_err(|e| e.to_string())?;
     let dir = path.parent().unwrap();
     let (b, w) = parse_str(&text, "cat.pbrt", dir).map_err(|e| format!("{e}\n{text}"))?;
+    // Where each light is among the shapes (not in the JSON compared below).
+    let order = |s: &SceneDescription| s.lights.iter().map(|l| l.shapes_before).collect::<Vec<_>>();
+    if order(&a) != order(&b) {
+        return Err(format!("lights among the shapes {:?} became {:?}", order(&a), order(&b)));
+    }
     if let Some(w) =
         w.iter().find(|w| w.message.contains("not used") || w.message.contains("unknown"))
     {

@@ -192,3 +192,41 @@ fn an_area_light_on_a_shape_that_cannot_be_sampled_warns() {
         }
     }
 }
+
+/// The renderer lists lights in directive order (a `LightSource` after
+/// the area lights of the shapes before it), and an area light inside an
+/// object instance is a glow: seen, with the instance's normal, but not
+/// among the lights.
+#[test]
+fn lights_keep_directive_order_and_instanced_area_lights_glow() {
+    use farm_common::geometry::Vec3;
+    use farm_render::lights::Light;
+    use farm_render::world::GLOW;
+    let tmp = tempfile::Builder::new().prefix("farm-features-").tempdir().expect("temp dir");
+    let path = tmp.path().join("order.pbrt");
+    let scene = "Camera \"perspective\"\nFilm \"image\" \"integer xresolution\" 8 \"integer yresolution\" 8\n\
+        Integrator \"whitted\"\nWorldBegin\nLightSource \"point\"\n\
+        AttributeBegin\nAreaLightSource \"diffuse\" \"rgb L\" [2 2 2]\nShape \"disk\"\nAttributeEnd\n\
+        ObjectBegin \"lamp\"\nAreaLightSource \"diffuse\" \"rgb L\" [3 3 3]\nShape \"sphere\"\nObjectEnd\n\
+        LightSource \"spot\"\nShape \"sphere\"\nObjectInstance \"lamp\"\nLightSource \"distant\"\n";
+    std::fs::write(&path, scene).expect("write");
+    let (desc, _) = farm_scene::parse_file(&path).expect("parses");
+    let (r, _) = Renderer::new(desc, &RenderOptions::default()).expect("builds");
+    let kinds: Vec<&str> = r
+        .world
+        .lights
+        .iter()
+        .map(|l| match l {
+            Light::Point(_) => "point",
+            Light::Area(_) => "area",
+            Light::Spot(_) => "spot",
+            Light::Distant(_) => "distant",
+            _ => "other",
+        })
+        .collect();
+    assert_eq!(kinds, ["point", "area", "spot", "distant"]);
+    assert_eq!(r.world.glows.len(), 1);
+    let out = r.world.emitted(GLOW, Vec3::Z, Vec3::Z);
+    assert_eq!((out[0], r.world.emitted(GLOW, Vec3::Z, -Vec3::Z)[0]), (3.0, 0.0));
+    assert_eq!(r.world.emitted(1, Vec3::Z, Vec3::Z)[0], 2.0, "the disk's light");
+}

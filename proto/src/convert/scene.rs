@@ -63,8 +63,10 @@ pub fn encode_scene(desc: &mut SceneDescription) -> Result<(Blob, Vec<Blob>), Er
     }
     let refs: Vec<(&str, Hash)> = assets.iter().map(|(k, b)| (k.as_str(), b.hash)).collect();
     // Where each light's directive was among the shapes, after the
-    // description and its assets: a manifest from before it is the two
-    // alone, and a reader from before it ignores the rest.
+    // description and its assets, so a manifest journalled before it (the
+    // two alone) still decodes. Workers from before it are refused at
+    // registration (`PROTOCOL_VERSION` 4), as they would render the lights
+    // in another order.
     let light_order: Vec<u32> = desc.lights.iter().map(|l| l.shapes_before).collect();
     let bytes = postcard::to_stdvec(&(&*desc, refs, light_order));
     for (key, params) in moved {
@@ -96,7 +98,9 @@ fn shape_at<'d>(desc: &'d mut SceneDescription, key: &str) -> Option<&'d mut Sha
 }
 
 /// The description in a manifest (with no assets yet, and no parameters
-/// in the shapes sent apart) and the assets it needs, by key and hash.
+/// in the shapes sent apart) and the assets it needs, by key and hash;
+/// then, where the manifest has it, each light's place among the shapes
+/// (`LightEntity::shapes_before`).
 pub fn decode_manifest(bytes: &[u8]) -> Result<(SceneDescription, Vec<(String, Hash)>), Error> {
     let malformed = |e: postcard::Error| Error::Malformed(e.to_string());
     let ((mut desc, refs), rest): ((SceneDescription, Vec<(String, Hash)>), _) =
