@@ -230,3 +230,23 @@ fn lights_keep_directive_order_and_instanced_area_lights_glow() {
     assert_eq!((out[0], r.world.emitted(GLOW, Vec3::Z, -Vec3::Z)[0]), (3.0, 0.0));
     assert_eq!(r.world.emitted(1, Vec3::Z, Vec3::Z)[0], 2.0, "the disk's light");
 }
+
+/// Subsurface materials draw pbrt-v3's warning that the Whitted
+/// integrator renders only their specular interface, at the directive.
+#[test]
+fn subsurface_materials_warn_that_whitted_ignores_their_scattering() {
+    let tmp = tempfile::Builder::new().prefix("farm-features-").tempdir().expect("temp dir");
+    let path = tmp.path().join("sss.pbrt");
+    let scene = "Camera \"perspective\"\nFilm \"image\" \"integer xresolution\" 8 \"integer yresolution\" 8\n\
+        Integrator \"whitted\"\nWorldBegin\nMaterial \"kdsubsurface\"\nShape \"sphere\"\n\
+        MakeNamedMaterial \"skin\" \"string type\" \"subsurface\"\nMaterial \"matte\"\nShape \"sphere\"\n";
+    std::fs::write(&path, scene).expect("write");
+    let (desc, _) = farm_scene::parse_file(&path).expect("parses");
+    let (_, warnings) = Renderer::new(desc, &RenderOptions::default()).expect("builds");
+    let lines: Vec<u32> = warnings
+        .iter()
+        .filter(|w| w.message.contains("doesn't support subsurface scattering"))
+        .filter_map(|w| w.loc.as_ref().map(|l| l.line))
+        .collect();
+    assert_eq!(lines, [5, 7], "{warnings:?}");
+}

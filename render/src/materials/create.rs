@@ -93,7 +93,19 @@ fn make(
     let bump = r.float_or_none(p, "bumpmap", w);
     let loc = &e.entity.loc;
     let m = MaterialParams { p, r, loc, files, bump, remap: p.bool("remaproughness", true) };
-    match e.entity.name.as_str() {
+    let name = e.entity.name.as_str();
+    if matches!(name, "subsurface" | "kdsubsurface") {
+        // pbrt-v3's MakeMaterial warning; only the material's specular
+        // interface is rendered.
+        w.push(Warning::at(
+            loc,
+            format!(
+                "Subsurface scattering material \"{name}\" used, but \"whitted\" integrator \
+                 doesn't support subsurface scattering."
+            ),
+        ));
+    }
+    match name {
         "plastic" => Material::Plastic(Plastic::create(m, w)),
         "mirror" => Material::Mirror(Mirror::create(m, w)),
         "glass" => Material::Glass(Glass::create(m, w)),
