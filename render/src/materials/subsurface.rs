@@ -117,8 +117,9 @@ mod tests {
     }
 
     /// Both build glass's boundary with pbrt-v3's eta 1.33, read the
-    /// BSSRDF's parameters without a warning, and warn of an unknown
-    /// measured medium as pbrt-v3 does.
+    /// BSSRDF's parameters without a "not used" warning, and warn, as
+    /// pbrt-v3 does, that the Whitted integrator ignores their scattering
+    /// and of an unknown measured medium.
     #[test]
     fn the_boundary_is_a_dielectric_and_the_bssrdf_is_checked() {
         let mats = vec![
@@ -146,6 +147,16 @@ mod tests {
             );
         }
         let text: Vec<String> = w.iter().map(|w| w.message.clone()).collect();
-        assert_eq!(text, ["Named material \"Ketchupp\" not found.  Using defaults."]);
+        let whitted = |name: &str| {
+            format!(
+                "Subsurface scattering material \"{name}\" used, but \"whitted\" integrator \
+                 doesn't support subsurface scattering."
+            )
+        };
+        let named = "Named material \"Ketchupp\" not found.  Using defaults.".to_string();
+        assert_eq!(
+            text,
+            [whitted("subsurface"), whitted("kdsubsurface"), whitted("subsurface"), named]
+        );
     }
 }
