@@ -2,7 +2,7 @@
 //! they fail, the image is bit-identical to the embedded render.
 
 use farm_cli::client::{self, RemoteOptions};
-use farm_cli::embedded::{self as submit, SubmitOptions};
+use farm_cli::embedded::{self as submit, RenderSummary, SubmitOptions};
 use farm_common::image::RgbImage;
 use farm_proto::v1::{
     self, coordinator_client::CoordinatorClient, coordinator_message, worker_message,
@@ -21,10 +21,14 @@ fn embedded() -> RgbImage {
 
 async fn remote(url: &str) -> RgbImage {
     let opts = RemoteOptions { spp: Some(SPP), ..Default::default() };
-    client::submit(&farm_cli::client::Remote::insecure(url), &scene(), &opts, |_, _| {})
+    remote_render(url, &scene(), &opts).await.image
+}
+
+/// `path` rendered on the farm at `url`.
+async fn remote_render(url: &str, path: &std::path::Path, opts: &RemoteOptions) -> RenderSummary {
+    client::submit(&farm_cli::client::Remote::insecure(url), path, opts, |_, _| {})
         .await
         .expect("farm render")
-        .image
 }
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 4)]
@@ -48,15 +52,7 @@ async fn the_lights_order_travels_to_the_workers() {
     let opts = SubmitOptions { threads: 2, ..Default::default() };
     let local = submit::render(&path, &opts, |_| {}).expect("embedded render").image;
     let cluster = TestCluster::start(1, Duration::from_millis(500)).await;
-    let remote = client::submit(
-        &farm_cli::client::Remote::insecure(&cluster.url),
-        &path,
-        &RemoteOptions::default(),
-        |_, _| {},
-    )
-    .await
-    .expect("farm render")
-    .image;
+    let remote = remote_render(&cluster.url, &path, &RemoteOptions::default()).await.image;
     assert!(bits(&remote) == bits(&local), "the farm's image differs from the embedded render");
     cluster.stop().await;
 }
@@ -370,14 +366,7 @@ async fn a_large_image_arrives_in_chunks_intact() {
         submit::render(&path, &SubmitOptions { threads: 2, ..Default::default() }, |_| {})
             .expect("embedded");
     let cluster = TestCluster::start(2, Duration::from_millis(500)).await;
-    let farm = client::submit(
-        &farm_cli::client::Remote::insecure(&cluster.url),
-        &path,
-        &RemoteOptions::default(),
-        |_, _| {},
-    )
-    .await
-    .expect("farm");
+    let farm = remote_render(&cluster.url, &path, &RemoteOptions::default()).await;
     assert_eq!((farm.image.width, farm.image.height), (1024, 1024));
     assert!(bits(&farm.image) == bits(&embedded.image), "the chunked image differs");
     // The error estimate and its map come through the chunks unchanged too.

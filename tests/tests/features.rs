@@ -139,21 +139,29 @@ fn moving_shapes_and_cameras_are_found() {
     );
 }
 
+/// The camera, film and Whitted integrator the warning tests' scenes open with.
+const WHITTED_HEAD: &str = "Camera \"perspective\"\nFilm \"image\" \"integer xresolution\" 8 \"integer yresolution\" 8\nIntegrator \"whitted\"\nWorldBegin\n";
+
+/// The renderer built from scene text (written to a file, so warnings
+/// name its lines), and its warnings.
+fn build(scene: &str) -> (Renderer, Vec<farm_common::scene::Warning>) {
+    let tmp = tempfile::Builder::new().prefix("farm-features-").tempdir().expect("temp dir");
+    let path = tmp.path().join("scene.pbrt");
+    std::fs::write(&path, scene).expect("write");
+    let (desc, _) = farm_scene::parse_file(&path).expect("parses");
+    Renderer::new(desc, &RenderOptions::default()).expect("builds")
+}
+
 /// A scene without an Integrator directive is warned about without a
 /// place in the file (there is none to name), one with an unsupported
 /// integrator at its directive.
 #[test]
 fn the_integrator_warning_names_the_directive_only_where_there_is_one() {
-    let tmp = tempfile::Builder::new().prefix("farm-features-").tempdir().expect("temp dir");
     let head = "Camera \"perspective\"\nFilm \"image\" \"integer xresolution\" 8 \"integer yresolution\" 8\n";
     for (integrator, loc) in
         [("", None), ("Integrator \"path\"\n", Some(3)), ("Integrator \"whitted\"\n", None)]
     {
-        let path = tmp.path().join("integrator.pbrt");
-        std::fs::write(&path, format!("{head}{integrator}WorldBegin\n{GLASS_AND_PLANE}"))
-            .expect("write");
-        let (desc, _) = farm_scene::parse_file(&path).expect("parses");
-        let (_, warnings) = Renderer::new(desc, &RenderOptions::default()).expect("builds");
+        let (_, warnings) = build(&format!("{head}{integrator}WorldBegin\n{GLASS_AND_PLANE}"));
         let w: Vec<_> = warnings.iter().filter(|w| w.message.contains("rendering with")).collect();
         match loc {
             None if integrator.is_empty() => {
@@ -171,16 +179,10 @@ fn the_integrator_warning_names_the_directive_only_where_there_is_one() {
 /// way the render goes on.
 #[test]
 fn an_area_light_on_a_shape_that_cannot_be_sampled_warns() {
-    let tmp = tempfile::Builder::new().prefix("farm-features-").tempdir().expect("temp dir");
-    let head = "Camera \"perspective\"\nFilm \"image\" \"integer xresolution\" 8 \"integer yresolution\" 8\nIntegrator \"whitted\"\nWorldBegin\n";
     for shape in ["cone", "paraboloid", "hyperboloid", "sphere"] {
-        let path = tmp.path().join("light.pbrt");
-        let scene = format!(
-            "{head}AttributeBegin\nTranslate 0 0 5\nAreaLightSource \"diffuse\"\nShape \"{shape}\"\nAttributeEnd\n"
-        );
-        std::fs::write(&path, scene).expect("write");
-        let (desc, _) = farm_scene::parse_file(&path).expect("parses");
-        let (_, warnings) = Renderer::new(desc, &RenderOptions::default()).expect("builds");
+        let (_, warnings) = build(&format!(
+            "{WHITTED_HEAD}AttributeBegin\nTranslate 0 0 5\nAreaLightSource \"diffuse\"\nShape \"{shape}\"\nAttributeEnd\n"
+        ));
         let w: Vec<_> =
             warnings.iter().filter(|w| w.message.contains("cannot be sampled")).collect();
         if shape == "sphere" {
@@ -202,16 +204,11 @@ fn lights_keep_directive_order_and_instanced_area_lights_glow() {
     use farm_common::geometry::Vec3;
     use farm_render::lights::Light;
     use farm_render::world::GLOW;
-    let tmp = tempfile::Builder::new().prefix("farm-features-").tempdir().expect("temp dir");
-    let path = tmp.path().join("order.pbrt");
-    let scene = "Camera \"perspective\"\nFilm \"image\" \"integer xresolution\" 8 \"integer yresolution\" 8\n\
-        Integrator \"whitted\"\nWorldBegin\nLightSource \"point\"\n\
+    let scene = "LightSource \"point\"\n\
         AttributeBegin\nAreaLightSource \"diffuse\" \"rgb L\" [2 2 2]\nShape \"disk\"\nAttributeEnd\n\
         ObjectBegin \"lamp\"\nAreaLightSource \"diffuse\" \"rgb L\" [3 3 3]\nShape \"sphere\"\nObjectEnd\n\
         LightSource \"spot\"\nShape \"sphere\"\nObjectInstance \"lamp\"\nLightSource \"distant\"\n";
-    std::fs::write(&path, scene).expect("write");
-    let (desc, _) = farm_scene::parse_file(&path).expect("parses");
-    let (r, _) = Renderer::new(desc, &RenderOptions::default()).expect("builds");
+    let (r, _) = build(&format!("{WHITTED_HEAD}{scene}"));
     let kinds: Vec<&str> = r
         .world
         .lights
@@ -235,14 +232,9 @@ fn lights_keep_directive_order_and_instanced_area_lights_glow() {
 /// integrator renders only their specular interface, at the directive.
 #[test]
 fn subsurface_materials_warn_that_whitted_ignores_their_scattering() {
-    let tmp = tempfile::Builder::new().prefix("farm-features-").tempdir().expect("temp dir");
-    let path = tmp.path().join("sss.pbrt");
-    let scene = "Camera \"perspective\"\nFilm \"image\" \"integer xresolution\" 8 \"integer yresolution\" 8\n\
-        Integrator \"whitted\"\nWorldBegin\nMaterial \"kdsubsurface\"\nShape \"sphere\"\n\
+    let scene = "Material \"kdsubsurface\"\nShape \"sphere\"\n\
         MakeNamedMaterial \"skin\" \"string type\" \"subsurface\"\nMaterial \"matte\"\nShape \"sphere\"\n";
-    std::fs::write(&path, scene).expect("write");
-    let (desc, _) = farm_scene::parse_file(&path).expect("parses");
-    let (_, warnings) = Renderer::new(desc, &RenderOptions::default()).expect("builds");
+    let (_, warnings) = build(&format!("{WHITTED_HEAD}{scene}"));
     let lines: Vec<u32> = warnings
         .iter()
         .filter(|w| w.message.contains("doesn't support subsurface scattering"))

@@ -10,13 +10,11 @@ use farm_common::Spectrum;
 /// An emitting shape.
 #[derive(Clone, Debug)]
 pub struct DiffuseAreaLight {
-    /// Emitted radiance (`L` × `scale`).
-    pub l_emit: Spectrum,
+    /// What it emits, and to which side.
+    pub emission: Glow,
     /// The emitting shape (render space); private with what is worked out
     /// from it below.
     shape: Shape,
-    /// `twosided`: emit from the back too.
-    pub two_sided: bool,
     /// 1 / the shape's area, worked out once (pbrt-v3 keeps `area` too);
     /// private, like `shape`, so that only [`DiffuseAreaLight::new`] makes
     /// a light and it always matches `shape`.
@@ -29,14 +27,15 @@ impl DiffuseAreaLight {
     /// The light of `shape` emitting `l_emit`.
     pub fn new(l_emit: Spectrum, shape: Shape, two_sided: bool) -> Self {
         let (inv_area, geometric_normal) = (1.0 / shape.area(), shape.light_normal());
-        DiffuseAreaLight { l_emit, shape, two_sided, inv_area, geometric_normal }
+        let emission = Glow { l_emit, two_sided };
+        DiffuseAreaLight { emission, shape, inv_area, geometric_normal }
     }
 
     /// Radiance leaving a point of the shape whose geometric normal is `n`,
     /// in direction `w`.
     #[inline]
     pub fn l(&self, n: Vec3, w: Vec3) -> Spectrum {
-        emitted(self.l_emit, self.two_sided, n, w)
+        self.emission.l(n, w)
     }
 
     /// Samples a point on the shape as seen from `r`.
@@ -53,7 +52,8 @@ impl DiffuseAreaLight {
     }
 }
 
-/// A surface that emits where it is seen but lights nothing: an area
+/// What a diffuse area light emits (pbrt-v3 `DiffuseAreaLight::L`); alone,
+/// a surface that emits where it is seen but lights nothing: an area
 /// light on a shape inside an object instance. pbrt-v3 warns ("Area
 /// lights not supported with object instancing") but keeps the light on
 /// the instance's primitives, so camera and specular rays that hit them
@@ -68,19 +68,14 @@ pub struct Glow {
 }
 
 impl Glow {
-    /// Radiance leaving a point with geometric normal `n` in direction `w`.
+    /// Radiance leaving a point with geometric normal `n` in direction `w`:
+    /// `l_emit` on the front side, or on both.
     #[inline]
     pub fn l(&self, n: Vec3, w: Vec3) -> Spectrum {
-        emitted(self.l_emit, self.two_sided, n, w)
-    }
-}
-
-/// pbrt-v3 `DiffuseAreaLight::L`: `l_emit` on the front side, or on both.
-#[inline]
-fn emitted(l_emit: Spectrum, two_sided: bool, n: Vec3, w: Vec3) -> Spectrum {
-    if two_sided || n.dot(w) > 0.0 {
-        l_emit
-    } else {
-        Spectrum::ZERO
+        if self.two_sided || n.dot(w) > 0.0 {
+            self.l_emit
+        } else {
+            Spectrum::ZERO
+        }
     }
 }
