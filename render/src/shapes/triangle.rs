@@ -273,8 +273,9 @@ impl Triangle<'_> {
     /// [`Triangle::interaction`] written to `si`, the caller's, so that the
     /// closest hit's interaction is built where it is used rather than
     /// copied out through each layer of the intersection. Always inlined:
-    /// with the whole binary optimised as one module, LLVM kept it out of
-    /// the aggregate's closest hit, which cost cornell-box 2–3%.
+    /// with the whole binary optimised as one module, LLVM did not inline
+    /// it into [`Aggregate::intersect`](crate::primitive::Aggregate::intersect),
+    /// which cost cornell-box 2–3%.
     #[inline(always)]
     pub fn interaction_into(self, ray: &Ray, b: [f32; 3], si: &mut SurfaceInteraction) {
         let mesh = self.mesh;
