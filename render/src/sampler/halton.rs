@@ -11,9 +11,8 @@
 //! permutation tables (a default-seeded PCG32).
 
 use super::lowdiscrepancy::{
-    compute_radical_inverse_permutations, inverse_radical_inverse, radical_inverse,
-    radical_inverse_permutations_prefix, scrambled_radical_inverse_fast, DigitPairs, PAIR_DIMS,
-    PRIME_SUMS, PRIME_TABLE_SIZE,
+    inverse_radical_inverse, radical_inverse, radical_inverse_permutations_range,
+    scrambled_radical_inverse_fast, DigitPairs, PAIR_DIMS, PRIME_SUMS, PRIME_TABLE_SIZE,
 };
 use super::pixel::{GlobalSampler, GlobalSequence};
 use farm_common::geometry::{Bounds2i, Point2i, Vec2};
@@ -24,22 +23,53 @@ use std::sync::OnceLock;
 const MAX_RESOLUTION: i32 = 128;
 
 /// Dimensions whose permutations are made when the first Halton sampler
-/// is: more than a Whitted render draws unless its scene has dozens of lights.
+/// is: the first part of the table ([`PART_STARTS`]).
 const EAGER_DIMS: usize = 64;
 
-/// pbrt-v3's permutations of the first [`EAGER_DIMS`] bases. pbrt-v3 makes
-/// all 1000 (3.7 M entries, 7 MB, a sixth of a small scene's start-up);
-/// the rest wait for [`all_permutations`].
-fn permutations() -> &'static [u16] {
-    static PERMS: OnceLock<Vec<u16>> = OnceLock::new();
-    PERMS.get_or_init(|| radical_inverse_permutations_prefix(&mut Rng::default(), EAGER_DIMS))
+/// Where each part of pbrt-v3's permutation table starts, and where the
+/// table ends: the first part is made with the first Halton sampler, each
+/// of the others on the first use of one of its bases. pbrt-v3 makes all
+/// 1000 bases' (3.7 M entries, 7.4 MB, a sixth of a small scene's
+/// start-up). Whitted draws 5 dimensions for the camera, then 2 for each
+/// light and 4 for the specular lobes at each hit, so a scene of a few
+/// lights stays within the first part (18 kB), and the first 256 bases
+/// take 0.4 MB.
+const PART_STARTS: [usize; 6] = [0, EAGER_DIMS, 128, 256, 512, PRIME_TABLE_SIZE];
+
+/// One part of the table: the permutations of the bases
+/// `PART_STARTS[k]..PART_STARTS[k + 1]`, and the generator as their last
+/// shuffle left it, which the next part continues from.
+struct Part {
+    perms: Vec<u16>,
+    rng: Rng,
 }
 
-/// All of pbrt-v3's permutations, made on the first use of a dimension past
-/// [`EAGER_DIMS`]; they start with the same values as [`permutations`].
-fn all_permutations() -> &'static [u16] {
-    static PERMS: OnceLock<Vec<u16>> = OnceLock::new();
-    PERMS.get_or_init(|| compute_radical_inverse_permutations(&mut Rng::default()))
+/// Part `k` of pbrt-v3's permutations, made (with the parts before it) on
+/// first use. The shuffles draw from one generator in base order, so a
+/// part's values are those of the whole table.
+fn part(k: usize) -> &'static Part {
+    static PARTS: [OnceLock<Part>; PART_STARTS.len() - 1] = [const { OnceLock::new() }; 5];
+    PARTS[k].get_or_init(|| {
+        let mut rng = if k == 0 { Rng::default() } else { part(k - 1).rng.clone() };
+        let perms =
+            radical_inverse_permutations_range(&mut rng, PART_STARTS[k], PART_STARTS[k + 1]);
+        Part { perms, rng }
+    })
+}
+
+/// The part holding dimension `dim` (below [`PRIME_TABLE_SIZE`]).
+#[inline]
+fn part_of(dim: usize) -> usize {
+    if dim < EAGER_DIMS {
+        0
+    } else {
+        (dim / EAGER_DIMS).ilog2() as usize + 1
+    }
+}
+
+/// pbrt-v3's permutations of the first [`EAGER_DIMS`] bases.
+fn permutations() -> &'static [u16] {
+    &part(0).perms
 }
 
 /// Two-digit tables of the low dimensions' permutations, once per process.
@@ -112,9 +142,14 @@ impl Halton {
         }
     }
 
+    /// Base `dim`'s permutation (and the rest of its part of the table).
     fn permutation_for_dimension(&self, dim: usize) -> &[u16] {
-        let perms = if dim < EAGER_DIMS { self.perms } else { all_permutations() };
-        &perms[PRIME_SUMS[dim] as usize..]
+        if dim < EAGER_DIMS {
+            return &self.perms[PRIME_SUMS[dim] as usize..];
+        }
+        let k = part_of(dim);
+        let start = PRIME_SUMS[PART_STARTS[k]];
+        &part(k).perms[(PRIME_SUMS[dim] - start) as usize..]
     }
 }
 
@@ -186,7 +221,9 @@ impl GlobalSequence for Halton {
 
 #[cfg(test)]
 mod tests {
-    use super::super::lowdiscrepancy::scrambled_radical_inverse;
+    use super::super::lowdiscrepancy::{
+        compute_radical_inverse_permutations, scrambled_radical_inverse, PRIMES,
+    };
     use super::*;
 
     fn bounds(w: i32, h: i32) -> Bounds2i {
@@ -219,13 +256,32 @@ mod tests {
     fn dimensions_past_the_eager_prefix_use_the_full_table() {
         let h = Halton::new(bounds(64, 64), false);
         let full = compute_radical_inverse_permutations(&mut Rng::default());
-        for dim in [2, 17, 18, EAGER_DIMS - 1, EAGER_DIMS, 500, 999] {
+        for dim in [2, 17, 18, EAGER_DIMS - 1, EAGER_DIMS, 127, 128, 500, 511, 512, 999] {
             for index in [1i64, 12_345, 987_654_321] {
                 let want =
                     scrambled_radical_inverse(dim, index as u64, &full[PRIME_SUMS[dim] as usize..]);
                 let got = h.sample_dimension(Point2i::new(0, 0), index, dim);
                 assert_eq!(got.to_bits(), want.to_bits(), "dim {dim}, index {index}");
             }
+        }
+    }
+
+    /// Every base's permutation, whichever part of the table holds it, is
+    /// pbrt-v3's; the parts meet where `PART_STARTS` says.
+    #[test]
+    fn each_part_of_the_table_holds_pbrts_permutations() {
+        let h = Halton::new(bounds(64, 64), false);
+        let full = compute_radical_inverse_permutations(&mut Rng::default());
+        for dim in 0..PRIME_TABLE_SIZE {
+            let p = PRIMES[dim] as usize;
+            let want = &full[PRIME_SUMS[dim] as usize..][..p];
+            assert_eq!(&h.permutation_for_dimension(dim)[..p], want, "dim {dim}");
+        }
+        for (k, w) in PART_STARTS.windows(2).enumerate() {
+            assert_eq!((part_of(w[0]), part_of(w[1] - 1)), (k, k));
+            let size = (PRIME_SUMS.get(w[1]).copied().unwrap_or(full.len() as u32)
+                - PRIME_SUMS[w[0]]) as usize;
+            assert_eq!(part(k).perms.len(), size, "part {k}");
         }
     }
 

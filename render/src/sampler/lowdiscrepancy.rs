@@ -230,11 +230,20 @@ pub fn compute_radical_inverse_permutations(rng: &mut Rng) -> Vec<u16> {
 /// [`compute_radical_inverse_permutations`], since the shuffles draw from
 /// the generator in base order.
 pub fn radical_inverse_permutations_prefix(rng: &mut Rng, bases: usize) -> Vec<u16> {
-    let bases = bases.min(PRIME_TABLE_SIZE);
-    let total: usize = PRIMES[..bases].iter().map(|&p| p as usize).sum();
+    radical_inverse_permutations_range(rng, 0, bases)
+}
+
+/// The permutations of the prime bases `first..end` only, drawn from `rng`
+/// as it stands after those of the bases before `first`: entries
+/// `PRIME_SUMS[first]..PRIME_SUMS[end]` of
+/// [`compute_radical_inverse_permutations`] when it does.
+pub fn radical_inverse_permutations_range(rng: &mut Rng, first: usize, end: usize) -> Vec<u16> {
+    let end = end.min(PRIME_TABLE_SIZE);
+    let bases = &PRIMES[first.min(end)..end];
+    let total: usize = bases.iter().map(|&p| p as usize).sum();
     let mut perms = vec![0u16; total];
     let mut start = 0;
-    for &p in &PRIMES[..bases] {
+    for &p in bases {
         let p = p as usize;
         let chunk = &mut perms[start..start + p];
         for (j, v) in chunk.iter_mut().enumerate() {
