@@ -28,12 +28,14 @@ const EAGER_DIMS: usize = 64;
 
 /// Where each part of pbrt-v3's permutation table starts, and where the
 /// table ends: the first part is made with the first Halton sampler, each
-/// of the others on the first use of one of its bases. pbrt-v3 makes all
-/// 1000 bases' (3.7 M entries, 7.4 MB, a sixth of a small scene's
-/// start-up). Whitted draws 5 dimensions for the camera, then 2 for each
-/// light and 4 for the specular lobes at each hit, so a scene of a few
-/// lights stays within the first part (18 kB), and the first 256 bases
-/// take 0.4 MB.
+/// of the others (and any before it not yet made) on the first use of one
+/// of its bases. pbrt-v3 makes the table for all 1000 bases: 3.7 M
+/// entries, 7.4 MB. Whitted draws 5 dimensions for the camera, then, at
+/// every hit of its ray tree in turn, 2 for each light and, above the last
+/// depth, 4 for the specular lobes. A scene of a few lights and no glass
+/// stays within the first part (18 kB); glass branches the tree, so
+/// `scenes/example.pbrt` (three lights, depth 5) can draw up to about 250
+/// dimensions, within the first three parts (0.4 MB).
 const PART_STARTS: [usize; 6] = [0, EAGER_DIMS, 128, 256, 512, PRIME_TABLE_SIZE];
 
 /// One part of the table: the permutations of the bases
@@ -48,7 +50,8 @@ struct Part {
 /// first use. The shuffles draw from one generator in base order, so a
 /// part's values are those of the whole table.
 fn part(k: usize) -> &'static Part {
-    static PARTS: [OnceLock<Part>; PART_STARTS.len() - 1] = [const { OnceLock::new() }; 5];
+    static PARTS: [OnceLock<Part>; PART_STARTS.len() - 1] =
+        [const { OnceLock::new() }; PART_STARTS.len() - 1];
     PARTS[k].get_or_init(|| {
         let mut rng = if k == 0 { Rng::default() } else { part(k - 1).rng.clone() };
         let perms =
@@ -60,11 +63,8 @@ fn part(k: usize) -> &'static Part {
 /// The part holding dimension `dim` (below [`PRIME_TABLE_SIZE`]).
 #[inline]
 fn part_of(dim: usize) -> usize {
-    if dim < EAGER_DIMS {
-        0
-    } else {
-        (dim / EAGER_DIMS).ilog2() as usize + 1
-    }
+    debug_assert!(dim < PRIME_TABLE_SIZE);
+    PART_STARTS[1..].partition_point(|&start| start <= dim)
 }
 
 /// pbrt-v3's permutations of the first [`EAGER_DIMS`] bases.
@@ -142,7 +142,8 @@ impl Halton {
         }
     }
 
-    /// Base `dim`'s permutation (and the rest of its part of the table).
+    /// The permutation of base `PRIMES[dim]` (and the rest of its part of
+    /// the table).
     fn permutation_for_dimension(&self, dim: usize) -> &[u16] {
         if dim < EAGER_DIMS {
             return &self.perms[PRIME_SUMS[dim] as usize..];
@@ -209,7 +210,8 @@ impl GlobalSequence for Halton {
             ),
             _ => {
                 // pbrt-v3 aborts past its 1000 permuted bases; wrap instead
-                // (never reached with Whitted's handful of dimensions).
+                // (reached only by ray trees of glass several levels deep
+                // under dozens of lights).
                 let dim =
                     if dim < PRIME_TABLE_SIZE { dim } else { 2 + dim % (PRIME_TABLE_SIZE - 2) };
                 let perm = self.permutation_for_dimension(dim);
@@ -283,6 +285,32 @@ mod tests {
                 - PRIME_SUMS[w[0]]) as usize;
             assert_eq!(part(k).perms.len(), size, "part {k}");
         }
+    }
+
+    /// The first entries of some bases' permutations as C++ pbrt-v3 makes
+    /// them: `ComputeRadicalInversePermutations` with a default `RNG`,
+    /// printed by a small program linked with the pbrt-v3 library built as
+    /// `../shared/reference/BUILD-PBRT-V3.md` says. Bases on both sides of
+    /// every part's edge.
+    #[test]
+    fn the_parts_hold_pbrt_v3s_own_values() {
+        let pbrt: [(usize, [u16; 8]); 10] = [
+            (17, [56, 4, 6, 5, 36, 23, 35, 17]),
+            (63, [177, 295, 108, 8, 193, 179, 286, 120]),
+            (64, [236, 43, 18, 290, 180, 164, 15, 235]),
+            (127, [569, 18, 5, 124, 611, 672, 598, 416]),
+            (128, [622, 205, 721, 252, 288, 485, 661, 439]),
+            (255, [1215, 1612, 422, 873, 902, 662, 1398, 472]),
+            (256, [1417, 676, 459, 1507, 1050, 1185, 1163, 814]),
+            (511, [2763, 3460, 2035, 595, 2584, 3469, 737, 143]),
+            (512, [2503, 1645, 3180, 1564, 1097, 1899, 2501, 2607]),
+            (999, [3238, 4543, 7597, 5332, 4638, 877, 5077, 5885]),
+        ];
+        let h = Halton::new(bounds(64, 64), false);
+        for (dim, want) in pbrt {
+            assert_eq!(h.permutation_for_dimension(dim)[..8], want, "dim {dim}");
+        }
+        assert_eq!(h.permutation_for_dimension(0)[..2], [1, 0]);
     }
 
     #[test]

@@ -233,10 +233,12 @@ pub fn radical_inverse_permutations_prefix(rng: &mut Rng, bases: usize) -> Vec<u
     radical_inverse_permutations_range(rng, 0, bases)
 }
 
-/// The permutations of the prime bases `first..end` only, drawn from `rng`
-/// as it stands after those of the bases before `first`: entries
-/// `PRIME_SUMS[first]..PRIME_SUMS[end]` of
-/// [`compute_radical_inverse_permutations`] when it does.
+/// The permutations of the prime bases `first..end` only (`end` at most
+/// [`PRIME_TABLE_SIZE`]), shuffled with `rng`, which is left where the next
+/// base's shuffle starts. If `rng` is where shuffling bases `0..first`
+/// leaves a default generator, these are the entries of
+/// [`compute_radical_inverse_permutations`] from `PRIME_SUMS[first]` up to
+/// base `end`'s.
 pub fn radical_inverse_permutations_range(rng: &mut Rng, first: usize, end: usize) -> Vec<u16> {
     let end = end.min(PRIME_TABLE_SIZE);
     let bases = &PRIMES[first.min(end)..end];
