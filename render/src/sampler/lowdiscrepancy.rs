@@ -222,15 +222,7 @@ fn pairs_in_base(base: u64, a: u64, pairs: &[u32], perm: &[u16], tail: f32) -> f
 /// bases, concatenated; base `i`'s starts at `PRIME_SUMS[i]` (pbrt-v3
 /// `ComputeRadicalInversePermutations`).
 pub fn compute_radical_inverse_permutations(rng: &mut Rng) -> Vec<u16> {
-    radical_inverse_permutations_prefix(rng, PRIME_TABLE_SIZE)
-}
-
-/// The permutations of the first `bases` prime bases only: the same values
-/// as the first `PRIME_SUMS[bases]` entries of
-/// [`compute_radical_inverse_permutations`], since the shuffles draw from
-/// the generator in base order.
-pub fn radical_inverse_permutations_prefix(rng: &mut Rng, bases: usize) -> Vec<u16> {
-    radical_inverse_permutations_range(rng, 0, bases)
+    radical_inverse_permutations_range(rng, 0, PRIME_TABLE_SIZE)
 }
 
 /// The permutations of the prime bases `first..end` only (`end` at most

@@ -105,7 +105,7 @@ fn identity_permutation_scramble_equals_plain_radical_inverse() {
 fn permutation_prefixes_match_the_full_table() {
     let full = compute_radical_inverse_permutations(&mut Rng::default());
     for bases in [1, 2, 18, 64] {
-        let prefix = radical_inverse_permutations_prefix(&mut Rng::default(), bases);
+        let prefix = radical_inverse_permutations_range(&mut Rng::default(), 0, bases);
         let end = PRIMES[..bases].iter().map(|&p| p as usize).sum::<usize>();
         assert_eq!(prefix, full[..end], "{bases} bases");
     }
